@@ -1,0 +1,48 @@
+//! A flat binary BVH: binned-SAH build ([`build`]), closest-hit and any-hit traversal
+//! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]).
+//!
+//! The BVH knows only boxes. Primitives are reached through the [`Primitives`] trait by their
+//! position in [`Bvh::prim_indices`] order, so the owner can store them in that order and a
+//! leaf's primitives sit next to each other in memory.
+
+pub mod build;
+pub mod node;
+pub mod stats;
+pub mod traverse;
+pub mod validate;
+
+pub use build::BuildParams;
+pub use node::BvhNode;
+pub use stats::{BvhStats, LevelBox, TraversalStats};
+pub use validate::BvhError;
+
+use crate::geometry::PrimHit;
+use crate::ray::Ray;
+
+/// Deepest tree the builder makes; traversal stacks are sized by it.
+pub const MAX_DEPTH: usize = 64;
+
+/// The primitives a BVH was built over, addressed by their position in BVH order.
+pub trait Primitives {
+    /// Intersect primitive `index` (a position in [`Bvh::prim_indices`]) within `[t_min, t_max]`.
+    fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit>;
+}
+
+/// A bounding volume hierarchy in one flat array, depth-first: a node's first child follows it.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    /// The nodes; `nodes[0]` is the root. Empty when built over no (finite) primitive.
+    pub nodes: Vec<BvhNode>,
+    /// For each BVH-order slot, the index of the input primitive stored there. Primitives with
+    /// non-finite bounds (NaN or infinite vertices) are left out: no ray can hit them.
+    pub prim_indices: Vec<u32>,
+}
+
+/// A hit reported by the BVH: the primitive's BVH-order slot and where it was hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhHit {
+    /// Slot of the primitive in [`Bvh::prim_indices`] order.
+    pub slot: u32,
+    /// Distance and surface parameters.
+    pub hit: PrimHit,
+}

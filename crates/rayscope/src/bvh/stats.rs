@@ -1,0 +1,104 @@
+//! Tree statistics, per-ray traversal counters, and the boxes of one level for the debugger.
+
+use super::{Bvh, BvhNode};
+use crate::geometry::Aabb;
+
+/// Counters of one traversal (or a sum of many): what a heat map shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalStats {
+    /// Nodes whose box was tested.
+    pub nodes_visited: u32,
+    /// Primitives intersected.
+    pub prims_tested: u32,
+}
+
+/// Summary of a built tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BvhStats {
+    /// All nodes.
+    pub nodes: usize,
+    /// Leaf nodes.
+    pub leaves: usize,
+    /// Number of levels (a lone root leaf is one level; an empty tree zero).
+    pub levels: usize,
+    /// Mean primitives per leaf.
+    pub mean_leaf_size: f32,
+    /// SAH cost with unit traversal and intersection costs, relative to the root's area.
+    pub sah_cost: f32,
+}
+
+/// A box of the level view: the node, its box, and whether it is a leaf.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelBox {
+    /// Index of the node in [`Bvh::nodes`].
+    pub node: u32,
+    /// Its box.
+    pub bounds: Aabb,
+    /// Its depth (the root is level 0).
+    pub level: u32,
+    /// Whether it is a leaf (a leaf above the requested level ends its branch there).
+    pub is_leaf: bool,
+}
+
+impl Bvh {
+    /// Depth-first walk yielding each node index with its level.
+    fn walk(&self, mut f: impl FnMut(usize, u32, &BvhNode)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = vec![(0usize, 0u32)];
+        while let Some((i, level)) = stack.pop() {
+            let n = &self.nodes[i];
+            f(i, level, n);
+            if !n.is_leaf() {
+                stack.push((n.start as usize, level + 1));
+                stack.push((i + 1, level + 1));
+            }
+        }
+    }
+
+    /// Node and leaf counts, levels, mean leaf size and SAH cost.
+    pub fn stats(&self) -> BvhStats {
+        let mut s = BvhStats {
+            nodes: self.nodes.len(),
+            ..BvhStats::default()
+        };
+        let Some(root) = self.nodes.first() else {
+            return s;
+        };
+        let root_area = root.bounds().half_area().max(f32::MIN_POSITIVE);
+        let mut prims = 0usize;
+        let mut cost = 0.0f64;
+        self.walk(|_, level, n| {
+            s.levels = s.levels.max(level as usize + 1);
+            let rel = (n.bounds().half_area() / root_area) as f64;
+            if n.is_leaf() {
+                s.leaves += 1;
+                prims += n.count as usize;
+                cost += rel * n.count as f64;
+            } else {
+                cost += rel;
+            }
+        });
+        s.mean_leaf_size = prims as f32 / s.leaves as f32;
+        s.sah_cost = cost as f32;
+        s
+    }
+
+    /// The boxes at `level`, and the leaves that end above it (the course report's choice,
+    /// so that every primitive is covered by some drawn box).
+    pub fn boxes_at_level(&self, level: u32) -> Vec<LevelBox> {
+        let mut out = Vec::new();
+        self.walk(|i, l, n| {
+            if l == level || (l < level && n.is_leaf()) {
+                out.push(LevelBox {
+                    node: i as u32,
+                    bounds: n.bounds(),
+                    level: l,
+                    is_leaf: n.is_leaf(),
+                });
+            }
+        });
+        out
+    }
+}

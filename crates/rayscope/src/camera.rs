@@ -1,0 +1,194 @@
+//! Cameras: the course's trackball and a plain look-at camera, both reduced to one pinhole
+//! model so that every face of rayscope generates the same primary rays.
+
+use serde::{Deserialize, Serialize};
+
+use crate::math::{Mat3, Quat, Vec2, Vec3, Vec3A, quat_from_euler_degrees};
+use crate::ray::Ray;
+
+/// How a scene describes its camera.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum CameraDesc {
+    /// The course's trackball: orbit `distance` around `look_at`, rotated by Euler angles.
+    Trackball {
+        /// Point orbited and looked at.
+        #[serde(default)]
+        look_at: Vec3,
+        /// Distance from the look-at point.
+        #[serde(default = "default_distance")]
+        distance: f32,
+        /// Euler angles in degrees, glm's `quat(vec3)` convention (x first, then y, then z).
+        #[serde(default = "default_rotation")]
+        rotation: Vec3,
+        /// Vertical field of view in degrees.
+        #[serde(default = "default_fov")]
+        fov: f32,
+    },
+    /// A camera at `eye` looking at `target`, with `up` roughly up.
+    LookAt {
+        /// Camera position.
+        eye: Vec3,
+        /// Point looked at.
+        target: Vec3,
+        /// Up direction (need not be orthogonal to the view direction).
+        #[serde(default = "default_up")]
+        up: Vec3,
+        /// Vertical field of view in degrees.
+        #[serde(default = "default_fov")]
+        fov: f32,
+    },
+}
+
+fn default_distance() -> f32 {
+    3.0
+}
+fn default_rotation() -> Vec3 {
+    Vec3::new(20.0, 20.0, 0.0)
+}
+fn default_fov() -> f32 {
+    50.0
+}
+fn default_up() -> Vec3 {
+    Vec3::Y
+}
+
+impl Default for CameraDesc {
+    /// The course's default view: fov 50, distance 3, look-at origin, rotation (20, 20, 0).
+    fn default() -> Self {
+        CameraDesc::Trackball {
+            look_at: Vec3::ZERO,
+            distance: default_distance(),
+            rotation: default_rotation(),
+            fov: default_fov(),
+        }
+    }
+}
+
+/// A pinhole camera: position, orientation and vertical field of view.
+///
+/// Primary ray through normalised screen point `(x, y)` in `[-1, 1]^2` (y up):
+/// `origin = position`,
+/// `dir = rotation * normalize(-x * tan(fov/2) * aspect, y * tan(fov/2), 1)`.
+/// The camera looks along its local `+z`; screen right is local `-x`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3A,
+    /// Camera-to-world rotation.
+    pub rotation: Quat,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+}
+
+impl Camera {
+    /// The camera a description stands for.
+    pub fn from_desc(desc: &CameraDesc) -> Camera {
+        match *desc {
+            CameraDesc::Trackball {
+                look_at,
+                distance,
+                rotation,
+                fov,
+            } => {
+                let rotation = quat_from_euler_degrees(rotation);
+                Camera {
+                    position: Vec3A::from(look_at + rotation * Vec3::new(0.0, 0.0, -distance)),
+                    rotation,
+                    fov_y: fov,
+                }
+            }
+            CameraDesc::LookAt { eye, target, up, fov } => {
+                let forward = (target - eye).normalize_or(Vec3::Z);
+                // Local +x is screen-left: up x forward.
+                let left = up
+                    .cross(forward)
+                    .try_normalize()
+                    .unwrap_or_else(|| forward.any_orthonormal_vector());
+                let cam_up = forward.cross(left);
+                let rotation = Quat::from_mat3(&Mat3::from_cols(left, cam_up, forward)).normalize();
+                Camera {
+                    position: Vec3A::from(eye),
+                    rotation,
+                    fov_y: fov,
+                }
+            }
+        }
+    }
+
+    /// The primary ray through normalised screen point `ndc` (`[-1, 1]^2`, y up) for an image
+    /// of aspect ratio `aspect` (width / height).
+    #[inline]
+    pub fn ray(&self, ndc: Vec2, aspect: f32) -> Ray {
+        let h = (self.fov_y.to_radians() * 0.5).tan();
+        let local = Vec3::new(-ndc.x * h * aspect, ndc.y * h, 1.0).normalize();
+        Ray::new(self.position, Vec3A::from(self.rotation * local))
+    }
+
+    /// The normalised screen point of the centre of pixel `(px, py)` (row 0 at the top) in a
+    /// `width x height` image, offset by `jitter` in `[0, 1)^2` (0.5 is the centre).
+    #[inline]
+    pub fn ndc(px: u32, py: u32, width: u32, height: u32, jitter: Vec2) -> Vec2 {
+        Vec2::new(
+            (px as f32 + jitter.x) / width as f32 * 2.0 - 1.0,
+            1.0 - (py as f32 + jitter.y) / height as f32 * 2.0,
+        )
+    }
+
+    /// The primary ray through the centre of pixel `(px, py)`.
+    pub fn pixel_ray(&self, px: u32, py: u32, width: u32, height: u32) -> Ray {
+        self.ray(
+            Camera::ndc(px, py, width, height, Vec2::splat(0.5)),
+            width as f32 / height as f32,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_trackball_looks_at_origin_from_above() {
+        let cam = Camera::from_desc(&CameraDesc::default());
+        assert!((cam.position.length() - 3.0).abs() < 1e-5);
+        assert!(
+            cam.position.y > 0.0,
+            "rotation (20,20,0) lifts the eye above the look-at point"
+        );
+        let centre = cam.ray(Vec2::ZERO, 1.0);
+        let to_origin = (-cam.position).normalize();
+        assert!(centre.dir.dot(to_origin) > 1.0 - 1e-6);
+    }
+
+    #[test]
+    fn screen_right_is_local_minus_x() {
+        let cam = Camera::from_desc(&CameraDesc::Trackball {
+            look_at: Vec3::ZERO,
+            distance: 3.0,
+            rotation: Vec3::ZERO,
+            fov: 90.0,
+        });
+        let r = cam.ray(Vec2::new(1.0, 0.0), 1.0);
+        assert!(r.dir.x < 0.0 && r.dir.z > 0.0);
+        let up = cam.ray(Vec2::new(0.0, 1.0), 1.0);
+        assert!(up.dir.y > 0.0);
+    }
+
+    #[test]
+    fn look_at_matches_equivalent_trackball() {
+        let tb = Camera::from_desc(&CameraDesc::default());
+        let target = Vec3::ZERO;
+        let up = tb.rotation * Vec3::Y;
+        let la = Camera::from_desc(&CameraDesc::LookAt {
+            eye: Vec3::from(tb.position),
+            target,
+            up,
+            fov: 50.0,
+        });
+        for ndc in [Vec2::new(0.3, -0.7), Vec2::new(-1.0, 1.0)] {
+            let (a, b) = (tb.ray(ndc, 1.0), la.ray(ndc, 1.0));
+            assert!(a.dir.dot(b.dir) > 1.0 - 1e-6, "{ndc}");
+        }
+    }
+}

@@ -1,0 +1,70 @@
+//! The library's error type: every failure names the file (and line, where known).
+
+use std::path::PathBuf;
+
+/// Result with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// What can go wrong loading a scene or writing an image.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A file's contents are malformed.
+    #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line, where known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// A scene needs a course file that is not in the asset folder.
+    #[error(
+        "{path}: not found; scene '{scene}' needs the course's scene files. Point --assets (or the \
+         RAYSCOPE_ASSETS environment variable) at the folder that holds them (shared/scenes)"
+    )]
+    MissingAsset {
+        /// The scene that needs it.
+        scene: String,
+        /// Where it was looked for.
+        path: PathBuf,
+    },
+    /// No built-in scene has this name.
+    #[error("unknown scene '{name}'; built-in scenes: {known}")]
+    UnknownScene {
+        /// The name asked for.
+        name: String,
+        /// The names that exist, comma separated.
+        known: String,
+    },
+    /// A setting or scene value is out of its range.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl Error {
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Error {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// A parse error in `path` at `line`.
+    pub fn parse(path: impl Into<PathBuf>, line: Option<usize>, message: impl Into<String>) -> Error {
+        Error::Parse {
+            path: path.into(),
+            line,
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,610 @@
+//! Scene descriptions: the TOML scene-file format, and turning a description into a [`Scene`].
+//!
+//! ```toml
+//! name = "my scene"
+//! [camera]                      # or kind = "look-at" with eye, target, up, fov
+//! kind = "trackball"
+//! rotation = [20, 20, 0]
+//!
+//! [[mesh]]
+//! path = "bunny.obj"            # relative to this file; or `asset = "..."` in the asset folder
+//! normalize = true              # the course's fit into the unit sphere
+//! transform = { translate = [0, 0.5, 0], rotate = [0, 90, 0], scale = 1.0 }
+//! material = { kd = [0.8, 0.2, 0.2] }   # overrides the MTL's fields that it names
+//!
+//! [[sphere]]
+//! center = [0, 0, 0]
+//! radius = 0.5
+//! material = { kd = [0.2, 0.2, 0.8], ks = [0.5, 0.5, 0.5], shininess = 50 }
+//!
+//! [[light]]
+//! kind = "point"
+//! position = [-1, 1, -1]
+//! color = [1, 1, 1]
+//!
+//! [render]                      # any field of RenderSettings
+//! max_depth = 3
+//! ```
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::{Mesh, Scene, SceneSphere};
+use crate::camera::CameraDesc;
+use crate::error::{Error, Result};
+use crate::io::obj::{ObjFile, load_obj, smooth_normals};
+use crate::io::texture::load_texture;
+use crate::light::Light;
+use crate::material::{Material, MaterialDesc, Texture};
+use crate::math::{Vec2, Vec3, Vec3A, quat_from_euler_degrees};
+use crate::render::RenderSettings;
+
+/// A whole scene as written in a scene file (and as the built-ins are defined).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// Display name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The camera (default: the course's trackball view).
+    #[serde(default)]
+    pub camera: CameraDesc,
+    /// Triangle meshes.
+    #[serde(default, rename = "mesh", skip_serializing_if = "Vec::is_empty")]
+    pub meshes: Vec<MeshDesc>,
+    /// Spheres.
+    #[serde(default, rename = "sphere", skip_serializing_if = "Vec::is_empty")]
+    pub spheres: Vec<SphereDesc>,
+    /// Lights.
+    #[serde(default, rename = "light", skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<Light>,
+    /// Render settings the scene asks for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<RenderSettings>,
+}
+
+/// A mesh: from an OBJ file (`path` or `asset`) or given inline (`vertices` and `faces`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshDesc {
+    /// Name shown in the debugger.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// OBJ file, relative to the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+    /// OBJ file, relative to the asset folder (the course's scene files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub asset: Option<PathBuf>,
+    /// Inline vertex positions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertices: Option<Vec<Vec3>>,
+    /// Inline triangles (0-based vertex indices).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faces: Option<Vec<[u32; 3]>>,
+    /// Inline per-vertex normals (default: smooth normals from the faces).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normals: Option<Vec<Vec3>>,
+    /// Inline per-vertex texture coordinates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uvs: Option<Vec<Vec2>>,
+    /// Materials of an inline mesh, referenced by `face_materials`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub materials: Vec<MaterialDesc>,
+    /// Material of each inline face (default: the first material for all).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub face_materials: Vec<u32>,
+    /// Translate by the mean of the vertices and scale by the largest distance from it, so the
+    /// mesh fits the unit sphere (the course's normalisation), before `transform`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub normalize: bool,
+    /// Placement applied after normalisation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform: Option<TransformDesc>,
+    /// Overrides the fields it names in every material of the mesh.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<MaterialDesc>,
+}
+
+/// Scale, then rotate (Euler degrees, course convention), then translate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TransformDesc {
+    /// Translation.
+    pub translate: Vec3,
+    /// Rotation, Euler angles in degrees.
+    pub rotate: Vec3,
+    /// Uniform scale.
+    pub scale: f32,
+}
+
+impl Default for TransformDesc {
+    fn default() -> Self {
+        TransformDesc {
+            translate: Vec3::ZERO,
+            rotate: Vec3::ZERO,
+            scale: 1.0,
+        }
+    }
+}
+
+/// An analytic sphere.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereDesc {
+    /// Centre.
+    pub center: Vec3,
+    /// Radius (positive).
+    pub radius: f32,
+    /// Material (unnamed fields take the default material's values).
+    #[serde(default)]
+    pub material: MaterialDesc,
+}
+
+/// Where relative paths in a description are resolved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadContext {
+    /// Folder of the scene file (`path` entries are relative to it).
+    pub base_dir: PathBuf,
+    /// The asset folder (`asset` entries are relative to it); `None` uses [`default_assets`].
+    pub assets: Option<PathBuf>,
+}
+
+impl Default for LoadContext {
+    fn default() -> Self {
+        LoadContext {
+            base_dir: PathBuf::from("."),
+            assets: None,
+        }
+    }
+}
+
+/// The asset folder when none is given: `RAYSCOPE_ASSETS`, else `../shared/scenes` relative to
+/// the working directory when it exists.
+pub fn default_assets() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("RAYSCOPE_ASSETS").filter(|p| !p.is_empty()) {
+        return Some(PathBuf::from(p));
+    }
+    let p = PathBuf::from("../shared/scenes");
+    p.is_dir().then_some(p)
+}
+
+impl SceneDesc {
+    /// Parse a TOML scene file's text; errors name `path` and the line.
+    pub fn from_toml(text: &str, path: &Path) -> Result<SceneDesc> {
+        toml::from_str(text).map_err(|e| {
+            let start = e.span().map_or(0, |s| s.start.min(text.len()));
+            let line_of = |offset: usize| text[..offset].matches('\n').count() + 1;
+            let mut line = e.span().map(|_| line_of(start));
+            // Tagged tables (camera, lights) are buffered before serde sees their fields, so
+            // the span covers the whole table; point at the offending key instead.
+            if let Some(key) = e
+                .message()
+                .strip_prefix("unknown field `")
+                .and_then(|m| m.split('`').next())
+            {
+                let mut offset = start;
+                for l in text[start..].split_inclusive('\n') {
+                    if l.trim_start()
+                        .strip_prefix(key)
+                        .is_some_and(|r| r.trim_start().starts_with('='))
+                    {
+                        line = Some(line_of(offset));
+                        break;
+                    }
+                    offset += l.len();
+                }
+            }
+            Error::parse(path, line, e.message().to_string())
+        })
+    }
+
+    /// This description as TOML.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("scene descriptions always serialise")
+    }
+
+    /// A scene of one OBJ file, normalised, under the course's default light.
+    pub fn for_obj(path: &Path) -> SceneDesc {
+        SceneDesc {
+            name: path.file_name().map(|n| n.to_string_lossy().into_owned()),
+            meshes: vec![MeshDesc {
+                path: Some(path.to_path_buf()),
+                normalize: true,
+                ..MeshDesc::default()
+            }],
+            lights: vec![Light::Point {
+                position: Vec3::new(-1.0, 1.0, -1.0),
+                color: Vec3::ONE,
+            }],
+            ..SceneDesc::default()
+        }
+    }
+}
+
+/// Apply the fields `o` names to `m`.
+fn apply_override(m: &mut Material, o: &MaterialDesc, textures: &mut TextureCache, base: &Path) -> Result<()> {
+    if let Some(n) = &o.name {
+        m.name = n.clone();
+    }
+    m.kd = o.kd.unwrap_or(m.kd);
+    m.ks = o.ks.unwrap_or(m.ks);
+    m.shininess = o.shininess.unwrap_or(m.shininess);
+    m.transparency = o.transparency.unwrap_or(m.transparency);
+    if let Some(t) = &o.texture {
+        m.texture = Some(textures.get(&base.join(t))?);
+    }
+    validate_material(m)
+}
+
+fn validate_material(m: &Material) -> Result<()> {
+    let ok = m.kd.is_finite() && m.ks.is_finite() && m.shininess.is_finite() && (0.0..=1.0).contains(&m.transparency);
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::Invalid(format!(
+            "material '{}': values must be finite and transparency in [0, 1]",
+            m.name
+        )))
+    }
+}
+
+#[derive(Default)]
+struct TextureCache {
+    textures: Vec<Texture>,
+    by_path: HashMap<PathBuf, usize>,
+}
+
+impl TextureCache {
+    fn get(&mut self, path: &Path) -> Result<usize> {
+        if let Some(&i) = self.by_path.get(path) {
+            return Ok(i);
+        }
+        self.textures.push(load_texture(path)?);
+        self.by_path.insert(path.to_path_buf(), self.textures.len() - 1);
+        Ok(self.textures.len() - 1)
+    }
+}
+
+/// One mesh desc's geometry before placement: groups and their local materials.
+struct Loaded {
+    meshes: Vec<(Mesh, Option<usize>)>,
+    raw_positions: Vec<Vec3>,
+    materials: Vec<(Material, Option<PathBuf>)>,
+}
+
+fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Loaded> {
+    let file = match (&d.path, &d.asset, &d.vertices) {
+        (Some(p), None, None) => Some(ctx.base_dir.join(p)),
+        (None, Some(a), None) => {
+            let dir = ctx
+                .assets
+                .clone()
+                .or_else(default_assets)
+                .ok_or_else(|| Error::MissingAsset {
+                    scene: scene.to_string(),
+                    path: PathBuf::from("../shared/scenes").join(a),
+                })?;
+            let p = dir.join(a);
+            if !p.is_file() {
+                return Err(Error::MissingAsset {
+                    scene: scene.to_string(),
+                    path: p,
+                });
+            }
+            Some(p)
+        }
+        (None, None, Some(_)) => None,
+        _ => {
+            return Err(Error::Invalid(format!(
+                "scene '{scene}': a mesh needs exactly one of `path`, `asset` or `vertices`"
+            )));
+        }
+    };
+    if let Some(path) = file {
+        let ObjFile {
+            meshes,
+            materials,
+            raw_positions,
+        } = load_obj(&path)?;
+        let meshes = meshes
+            .into_iter()
+            .map(|m| {
+                let mesh = Mesh {
+                    name: m.name,
+                    positions: m.positions.into_iter().map(Vec3A::from).collect(),
+                    normals: m.normals.into_iter().map(Vec3A::from).collect(),
+                    uvs: m.uvs,
+                    materials: vec![0; m.triangles.len()],
+                    triangles: m.triangles,
+                };
+                (mesh, m.material)
+            })
+            .collect();
+        let materials = materials.into_iter().map(|m| (m.material, m.texture)).collect();
+        return Ok(Loaded {
+            meshes,
+            raw_positions,
+            materials,
+        });
+    }
+    let vertices = d.vertices.clone().unwrap_or_default();
+    let faces = d.faces.clone().unwrap_or_default();
+    let n = vertices.len();
+    let bad = |what: String| {
+        Error::Invalid(format!(
+            "scene '{scene}', mesh '{}': {what}",
+            d.name.as_deref().unwrap_or("")
+        ))
+    };
+    if let Some(f) = faces.iter().flatten().find(|&&i| i as usize >= n) {
+        return Err(bad(format!("face index {f} is out of range ({n} vertices)")));
+    }
+    if vertices.iter().any(|v| !v.is_finite()) {
+        return Err(bad("vertices must be finite".into()));
+    }
+    let flat: Vec<u32> = faces.iter().flatten().copied().collect();
+    let normals = match &d.normals {
+        Some(ns) if ns.len() == n => ns.iter().map(|v| v.normalize_or_zero()).collect(),
+        Some(ns) => return Err(bad(format!("{} normals for {n} vertices", ns.len()))),
+        None => smooth_normals(&vertices, &flat),
+    };
+    let uvs = match &d.uvs {
+        Some(uv) if uv.len() == n => uv.clone(),
+        Some(uv) => return Err(bad(format!("{} uvs for {n} vertices", uv.len()))),
+        None => Vec::new(),
+    };
+    let nmat = d.materials.len().max(1);
+    let face_materials = if d.face_materials.is_empty() {
+        vec![0; faces.len()]
+    } else {
+        d.face_materials.clone()
+    };
+    if face_materials.len() != faces.len() || face_materials.iter().any(|&m| m as usize >= nmat) {
+        return Err(bad("face_materials must give a valid material for every face".into()));
+    }
+    let mut materials = Vec::new();
+    let mut unused = TextureCache::default();
+    for md in &d.materials {
+        let mut m = Material::default();
+        let texture = md.texture.as_ref().map(|t| ctx.base_dir.join(t));
+        apply_override(
+            &mut m,
+            &MaterialDesc {
+                texture: None,
+                ..md.clone()
+            },
+            &mut unused,
+            &ctx.base_dir,
+        )?;
+        materials.push((m, texture));
+    }
+    let mesh = Mesh {
+        name: d.name.clone().unwrap_or_else(|| "mesh".into()),
+        positions: vertices.iter().copied().map(Vec3A::from).collect(),
+        normals: normals.into_iter().map(Vec3A::from).collect(),
+        uvs,
+        triangles: faces,
+        materials: face_materials,
+    };
+    // Inline meshes carry per-face material indices already; mark them with `None` so the
+    // caller maps them through the local material table.
+    Ok(Loaded {
+        meshes: vec![(mesh, None)],
+        raw_positions: vertices,
+        materials,
+    })
+}
+
+/// Turn a description into a scene: load files, normalise and place meshes, resolve
+/// materials and textures, check values, and build the BVH.
+pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
+    let name = desc.name.clone().unwrap_or_else(|| "scene".into());
+    let mut textures = TextureCache::default();
+    let mut materials: Vec<Material> = vec![Material::default()];
+    let mut meshes = Vec::new();
+    for d in &desc.meshes {
+        let inline = d.vertices.is_some();
+        let loaded = load_mesh_source(d, ctx, &name)?;
+        let base = materials.len() as u32;
+        for (mut m, tex) in loaded.materials {
+            if let Some(t) = tex {
+                m.texture = Some(textures.get(&t)?);
+            }
+            if let Some(o) = &d.material {
+                apply_override(&mut m, o, &mut textures, &ctx.base_dir)?;
+            }
+            materials.push(m);
+        }
+        // A file group without a material (or an inline mesh without materials) uses the
+        // default material, with the override applied.
+        let default_index = if d.material.is_some() || (inline && d.materials.is_empty()) {
+            let mut m = Material::default();
+            if let Some(o) = &d.material {
+                apply_override(&mut m, o, &mut textures, &ctx.base_dir)?;
+            }
+            materials.push(m);
+            materials.len() as u32 - 1
+        } else {
+            0
+        };
+        let placement = Placement::new(d, &loaded.raw_positions);
+        for (mut mesh, material) in loaded.meshes {
+            if inline {
+                let has = !d.materials.is_empty();
+                mesh.materials
+                    .iter_mut()
+                    .for_each(|m| *m = if has { base + *m } else { default_index });
+            } else {
+                let idx = material.map(|i| base + i as u32).unwrap_or(default_index);
+                mesh.materials.iter_mut().for_each(|m| *m = idx);
+            }
+            placement.apply(&mut mesh);
+            meshes.push(mesh);
+        }
+    }
+    let mut spheres = Vec::new();
+    for s in &desc.spheres {
+        if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) {
+            return Err(Error::Invalid(format!(
+                "scene '{name}': a sphere needs a finite centre and a positive radius"
+            )));
+        }
+        let mut m = Material::default();
+        apply_override(&mut m, &s.material, &mut textures, &ctx.base_dir)?;
+        materials.push(m);
+        spheres.push(SceneSphere {
+            center: s.center.into(),
+            radius: s.radius,
+            material: materials.len() as u32 - 1,
+        });
+    }
+    if let Some(l) = desc.lights.iter().find(|l| !l.is_valid()) {
+        return Err(Error::Invalid(format!(
+            "scene '{name}': light {l:?} has non-finite values or a negative radius"
+        )));
+    }
+    Ok(Scene::new(
+        name,
+        desc.camera.clone(),
+        meshes,
+        spheres,
+        materials,
+        textures.textures,
+        desc.lights.clone(),
+        desc.render.clone(),
+    ))
+}
+
+/// The course's normalisation followed by the mesh's transform.
+struct Placement {
+    center: Vec3,
+    inv_scale: f32,
+    rotation: glam::Quat,
+    scale: f32,
+    translate: Vec3,
+}
+
+impl Placement {
+    fn new(d: &MeshDesc, raw: &[Vec3]) -> Placement {
+        let (mut center, mut inv_scale) = (Vec3::ZERO, 1.0);
+        if d.normalize && !raw.is_empty() {
+            center = raw.iter().copied().sum::<Vec3>() / raw.len() as f32;
+            let max_d = raw.iter().map(|p| p.distance(center)).fold(0.0f32, f32::max);
+            if max_d > 0.0 {
+                inv_scale = 1.0 / max_d;
+            }
+        }
+        let t = d.transform.clone().unwrap_or_default();
+        Placement {
+            center,
+            inv_scale,
+            rotation: quat_from_euler_degrees(t.rotate),
+            scale: t.scale,
+            translate: t.translate,
+        }
+    }
+
+    fn apply(&self, mesh: &mut Mesh) {
+        for p in &mut mesh.positions {
+            let q = (Vec3::from(*p) - self.center) * self.inv_scale;
+            *p = (self.rotation * (q * self.scale) + self.translate).into();
+        }
+        // A uniform scale keeps normals' directions; only the rotation (and a negative scale's
+        // flip) applies.
+        let flip = self.scale.signum();
+        for n in &mut mesh.normals {
+            *n = Vec3A::from(self.rotation * Vec3::from(*n) * flip);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_keys_are_errors_with_a_line() {
+        let text = "name = \"x\"\n[camera]\nkind = \"trackball\"\nfovv = 3\n";
+        match SceneDesc::from_toml(text, Path::new("s.toml")) {
+            Err(Error::Parse { line, message, .. }) => {
+                assert_eq!(line, Some(4), "{message}");
+                assert!(message.contains("fovv"), "{message}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn lights_and_spheres_parse() {
+        let text = r#"
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = { kd = [1, 0, 0] }
+[[light]]
+kind = "parallelogram"
+v0 = [0, 1, 0]
+edge01 = [1, 0, 0]
+edge02 = [0, 0, 1]
+color0 = [1, 0, 0]
+color1 = [0, 1, 0]
+color2 = [0, 0, 1]
+color3 = [0, 1, 1]
+"#;
+        let d = SceneDesc::from_toml(text, Path::new("s.toml")).unwrap();
+        assert_eq!(d.spheres.len(), 1);
+        assert!(matches!(d.lights[0], Light::Parallelogram { .. }));
+        let scene = load(&d, &LoadContext::default()).unwrap();
+        assert_eq!(scene.materials[scene.spheres[0].material as usize].kd, Vec3::X);
+    }
+
+    #[test]
+    fn bad_values_are_rejected() {
+        let nan_light = "[[light]]\nkind = \"point\"\nposition = [nan, 0, 0]\ncolor = [1, 1, 1]\n";
+        let d = SceneDesc::from_toml(nan_light, Path::new("s.toml")).unwrap();
+        assert!(matches!(load(&d, &LoadContext::default()), Err(Error::Invalid(_))));
+        let bad_face = "[[mesh]]\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = [[0,1,3]]\n";
+        let d = SceneDesc::from_toml(bad_face, Path::new("s.toml")).unwrap();
+        assert!(matches!(load(&d, &LoadContext::default()), Err(Error::Invalid(_))));
+        let two_sources = "[[mesh]]\npath = \"a.obj\"\nasset = \"b.obj\"\n";
+        let d = SceneDesc::from_toml(two_sources, Path::new("s.toml")).unwrap();
+        assert!(load(&d, &LoadContext::default()).is_err());
+    }
+
+    #[test]
+    fn missing_obj_names_the_path() {
+        let d = SceneDesc::from_toml("[[mesh]]\npath = \"nope.obj\"\n", Path::new("s.toml")).unwrap();
+        let err = load(&d, &LoadContext::default()).unwrap_err().to_string();
+        assert!(err.contains("nope.obj"), "{err}");
+    }
+
+    #[test]
+    fn normalisation_fits_the_unit_sphere() {
+        let d = MeshDesc {
+            vertices: Some(vec![
+                Vec3::new(10.0, 0.0, 0.0),
+                Vec3::new(14.0, 0.0, 0.0),
+                Vec3::new(12.0, 2.0, 0.0),
+            ]),
+            faces: Some(vec![[0, 1, 2]]),
+            normalize: true,
+            ..MeshDesc::default()
+        };
+        let scene = load(
+            &SceneDesc {
+                meshes: vec![d],
+                ..SceneDesc::default()
+            },
+            &LoadContext::default(),
+        )
+        .unwrap();
+        let p = &scene.meshes[0].positions;
+        let mean = p.iter().copied().sum::<Vec3A>() / 3.0;
+        assert!(mean.length() < 1e-6);
+        let max = p.iter().map(|v| v.length()).fold(0.0, f32::max);
+        assert!((max - 1.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,332 @@
+//! Scenes: what a scene file or built-in describes ([`desc`]), the course's built-in scenes
+//! ([`builtin`]), and the loaded [`Scene`] with its BVH, ready to trace.
+
+pub mod builtin;
+pub mod desc;
+mod geometry;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
+pub use geometry::{Geometry, Shape};
+
+use crate::bvh::{BvhStats, TraversalStats};
+use crate::camera::{Camera, CameraDesc};
+use crate::error::{Error, Result};
+use crate::light::Light;
+use crate::material::{Material, Texture};
+use crate::math::{Color, Vec2, Vec3A, face_forward};
+use crate::ray::Ray;
+use crate::render::RenderSettings;
+
+/// A triangle mesh with per-vertex attributes and a material per triangle.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Name, for the debugger.
+    pub name: String,
+    /// Vertex positions (world space).
+    pub positions: Vec<Vec3A>,
+    /// Unit vertex normals, one per position (empty: none).
+    pub normals: Vec<Vec3A>,
+    /// Texture coordinates, one per position (empty: none).
+    pub uvs: Vec<Vec2>,
+    /// Triangles as vertex indices.
+    pub triangles: Vec<[u32; 3]>,
+    /// Material of each triangle (index into [`Scene::materials`]).
+    pub materials: Vec<u32>,
+}
+
+/// An analytic sphere with a material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneSphere {
+    /// Centre.
+    pub center: Vec3A,
+    /// Radius.
+    pub radius: f32,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+/// Which primitive a global primitive id names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimRef {
+    /// Triangle `face` of mesh `mesh`.
+    Triangle {
+        /// Mesh index.
+        mesh: u32,
+        /// Triangle index within the mesh.
+        face: u32,
+    },
+    /// Sphere number `0`.
+    Sphere(u32),
+}
+
+/// The closest hit of a ray with the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Global primitive id: triangles of all meshes in order, then spheres.
+    pub prim: u32,
+    /// Barycentric weight of vertex 1 (triangles).
+    pub u: f32,
+    /// Barycentric weight of vertex 2 (triangles).
+    pub v: f32,
+}
+
+/// Everything shading needs to know about a hit point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceInteraction {
+    /// The hit point.
+    pub point: Vec3A,
+    /// Unit geometric normal, turned towards the incoming ray's origin.
+    pub geo_normal: Vec3A,
+    /// Unit shading normal (interpolated when enabled), on the same side as `geo_normal`.
+    pub shading_normal: Vec3A,
+    /// Texture coordinates (zero without UVs).
+    pub uv: Vec2,
+    /// Material index.
+    pub material: u32,
+    /// Diffuse colour at the point: the texture where there is one, else `kd`.
+    pub kd: Color,
+}
+
+/// A loaded scene with its acceleration structure, ready to trace. Immutable once built, so
+/// threads share it by reference.
+#[derive(Debug)]
+pub struct Scene {
+    /// Display name.
+    pub name: String,
+    /// The camera as described.
+    pub camera: CameraDesc,
+    /// Triangle meshes.
+    pub meshes: Vec<Mesh>,
+    /// Spheres.
+    pub spheres: Vec<SceneSphere>,
+    /// Materials referenced by index.
+    pub materials: Vec<Material>,
+    /// Textures referenced by materials.
+    pub textures: Vec<Texture>,
+    /// Light sources.
+    pub lights: Vec<Light>,
+    /// Render settings the scene asks for (overridable by the user).
+    pub render: Option<RenderSettings>,
+    /// Global primitive id to primitive.
+    pub prims: Vec<PrimRef>,
+    /// Shapes and BVH.
+    pub geometry: Geometry,
+    /// How long the BVH build took.
+    pub build_time: Duration,
+    /// Whether any material is not fully opaque (shadow rays must then look through).
+    pub has_transparency: bool,
+}
+
+impl Scene {
+    /// Load a built-in scene by name, a `.toml` scene file, or a bare `.obj` mesh (normalised,
+    /// lit by the course's point light at (-1, 1, -1)).
+    pub fn load(spec: &str, assets: Option<&Path>) -> Result<Scene> {
+        let path = Path::new(spec);
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let (desc, base) = match ext.as_deref() {
+            Some("toml") => {
+                let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+                (SceneDesc::from_toml(&text, path)?, path.parent().map(Path::to_path_buf))
+            }
+            Some("obj") => (SceneDesc::for_obj(path), None),
+            _ => (builtin::scene_desc(spec)?, None),
+        };
+        let ctx = LoadContext {
+            base_dir: base.unwrap_or_else(|| PathBuf::from(".")),
+            assets: assets.map(Path::to_path_buf),
+        };
+        Scene::from_desc(&desc, &ctx)
+    }
+
+    /// Load what `desc` describes and build the BVH.
+    pub fn from_desc(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
+        desc::load(desc, ctx)
+    }
+
+    /// Assemble a scene from loaded parts and build its BVH.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        name: String,
+        camera: CameraDesc,
+        meshes: Vec<Mesh>,
+        spheres: Vec<SceneSphere>,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        lights: Vec<Light>,
+        render: Option<RenderSettings>,
+    ) -> Scene {
+        let mut prims = Vec::new();
+        for (m, mesh) in meshes.iter().enumerate() {
+            prims.extend((0..mesh.triangles.len()).map(|f| PrimRef::Triangle {
+                mesh: m as u32,
+                face: f as u32,
+            }));
+        }
+        prims.extend((0..spheres.len()).map(|s| PrimRef::Sphere(s as u32)));
+        let start = Instant::now();
+        let geometry = Geometry::build(&meshes, &spheres, &prims);
+        let build_time = start.elapsed();
+        let has_transparency = materials.iter().any(|m| m.transparency < 1.0);
+        Scene {
+            name,
+            camera,
+            meshes,
+            spheres,
+            materials,
+            textures,
+            lights,
+            render,
+            prims,
+            geometry,
+            build_time,
+            has_transparency,
+        }
+    }
+
+    /// The scene's camera.
+    pub fn camera(&self) -> Camera {
+        Camera::from_desc(&self.camera)
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.triangles.len()).sum()
+    }
+
+    /// BVH statistics.
+    pub fn bvh_stats(&self) -> BvhStats {
+        self.geometry.bvh.stats()
+    }
+
+    /// The closest hit along `ray`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.geometry.intersect(ray, &mut TraversalStats::default())
+    }
+
+    /// [`Scene::intersect`], counting traversal work into `stats`.
+    #[inline]
+    pub fn intersect_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
+        self.geometry.intersect(ray, stats)
+    }
+
+    /// Whether anything lies on `ray` within its interval.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.geometry.bvh.occluded(ray, &self.geometry.shapes[..])
+    }
+
+    /// The material of primitive `prim`.
+    pub fn material_of(&self, prim: u32) -> u32 {
+        match self.prims[prim as usize] {
+            PrimRef::Triangle { mesh, face } => self.meshes[mesh as usize].materials[face as usize],
+            PrimRef::Sphere(s) => self.spheres[s as usize].material,
+        }
+    }
+
+    /// The world-space corners of triangle `prim`, or `None` for a sphere.
+    pub fn triangle_vertices(&self, prim: u32) -> Option<[Vec3A; 3]> {
+        match self.prims[prim as usize] {
+            PrimRef::Triangle { mesh, face } => {
+                let m = &self.meshes[mesh as usize];
+                Some(m.triangles[face as usize].map(|i| m.positions[i as usize]))
+            }
+            PrimRef::Sphere(_) => None,
+        }
+    }
+
+    /// Shading information at `hit` on `ray`.
+    pub fn surface(&self, ray: &Ray, hit: &Hit, settings: &RenderSettings) -> SurfaceInteraction {
+        let point = ray.at(hit.t);
+        let (geo, shading, uv, material) = match self.prims[hit.prim as usize] {
+            PrimRef::Triangle { mesh, face } => {
+                let m = &self.meshes[mesh as usize];
+                let [a, b, c] = m.triangles[face as usize].map(|i| i as usize);
+                let geo = (m.positions[b] - m.positions[a])
+                    .cross(m.positions[c] - m.positions[a])
+                    .normalize_or_zero();
+                let w = Vec3A::new(1.0 - hit.u - hit.v, hit.u, hit.v);
+                let shading = if settings.interpolate_normals && !m.normals.is_empty() {
+                    (w.x * m.normals[a] + w.y * m.normals[b] + w.z * m.normals[c]).normalize_or(geo)
+                } else {
+                    geo
+                };
+                let uv = if m.uvs.is_empty() {
+                    Vec2::ZERO
+                } else {
+                    w.x * m.uvs[a] + w.y * m.uvs[b] + w.z * m.uvs[c]
+                };
+                (geo, shading, uv, m.materials[face as usize])
+            }
+            PrimRef::Sphere(s) => {
+                let s = &self.spheres[s as usize];
+                let n = ((point - s.center) / s.radius).normalize_or_zero();
+                // Spherical coordinates, for textured spheres.
+                let uv = Vec2::new(
+                    0.5 + n.z.atan2(n.x) / std::f32::consts::TAU,
+                    0.5 + n.y.clamp(-1.0, 1.0).asin() / std::f32::consts::PI,
+                );
+                (n, n, uv, s.material)
+            }
+        };
+        // Shade the side the ray arrives from: the course's meshes are not consistently
+        // oriented and are seen from both sides.
+        let geo_normal = face_forward(geo, -ray.dir);
+        let shading_normal = face_forward(shading, geo_normal);
+        let mat = &self.materials[material as usize];
+        let kd = match (mat.texture, settings.textures) {
+            (Some(t), true) => self.textures[t].sample(uv, settings.texture_filter),
+            _ => mat.kd,
+        };
+        SurfaceInteraction {
+            point,
+            geo_normal,
+            shading_normal,
+            uv,
+            material,
+            kd,
+        }
+    }
+
+    /// Fraction of light that passes from a surface point along `ray` (a shadow ray): zero
+    /// when an opaque surface blocks it; through transparent surfaces, the product of
+    /// `kd * (1 - d)` of each surface crossed (coloured shadows, as in the course).
+    pub fn transmittance(&self, ray: &Ray, settings: &RenderSettings) -> Color {
+        if !self.has_transparency {
+            return if self.occluded(ray) { Color::ZERO } else { Color::ONE };
+        }
+        let mut t = Color::ONE;
+        let mut r = *ray;
+        // Each surface crossed moves the ray past it; the bound guards against a loop on
+        // pathological input (coincident transparent surfaces).
+        for _ in 0..64 {
+            let Some(hit) = self.intersect(&r) else {
+                return t;
+            };
+            let mat = &self.materials[self.material_of(hit.prim) as usize];
+            if mat.transparency >= 1.0 {
+                return Color::ZERO;
+            }
+            let si = self.surface(&r, &hit, settings);
+            t *= si.kd * (1.0 - mat.transparency);
+            if t.max_element() <= 0.0 {
+                return Color::ZERO;
+            }
+            let next = Ray::spawn(si.point, si.geo_normal, r.dir, r.time);
+            let travelled = (next.origin - r.origin).dot(r.dir);
+            r = Ray {
+                t: crate::ray::Interval {
+                    min: 0.0,
+                    max: r.t.max - travelled,
+                },
+                ..next
+            };
+        }
+        Color::ZERO
+    }
+}

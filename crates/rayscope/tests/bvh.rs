@@ -1,0 +1,291 @@
+//! The BVH against brute force, its invariants, and degenerate inputs.
+
+mod common;
+
+use common::{Rng, assets, builtin_scene};
+use rayscope::bvh::{BuildParams, Bvh, Primitives};
+use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
+use rayscope::math::Vec3A;
+use rayscope::ray::Ray;
+use rayscope::scene::{Scene, Shape};
+
+/// Shapes in input order, for brute force; the BVH reaches them through its slot order.
+struct Ordered<'a> {
+    shapes: &'a [Shape],
+    bvh: &'a Bvh,
+}
+
+impl Primitives for Ordered<'_> {
+    fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
+        self.shapes[self.bvh.prim_indices[index as usize] as usize].intersect(ray, t_min, t_max)
+    }
+}
+
+fn brute_closest(shapes: &[Shape], ray: &Ray) -> Option<(u32, PrimHit)> {
+    let mut best: Option<(u32, PrimHit)> = None;
+    for (i, s) in shapes.iter().enumerate() {
+        let t_max = best.map_or(ray.t.max, |b| b.1.t);
+        if let Some(h) = s.intersect(ray, ray.t.min, t_max) {
+            best = Some((i as u32, h));
+        }
+    }
+    best
+}
+
+/// Check closest-hit and any-hit against brute force on `n` rays from `origin_of`.
+fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
+    let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    bvh.validate(&bounds).unwrap();
+    let prims = Ordered { shapes, bvh: &bvh };
+    let mut hits = 0;
+    for ray in rays {
+        let got = bvh
+            .intersect(&ray, &prims)
+            .map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
+        let want = brute_closest(shapes, &ray);
+        match (got, want) {
+            (None, None) => {}
+            (Some((gp, gh)), Some((_, wh))) => {
+                hits += 1;
+                // Equal distance; where two primitives tie (a shared edge), either is right,
+                // but the one reported must really be hit at that distance.
+                assert_eq!(gh.t, wh.t, "ray {ray:?}");
+                assert_eq!(
+                    shapes[gp as usize].intersect(&ray, ray.t.min, ray.t.max).map(|h| h.t),
+                    Some(gh.t)
+                );
+            }
+            (g, w) => panic!("ray {ray:?}: BVH {g:?}, brute force {w:?}"),
+        }
+        assert_eq!(bvh.occluded(&ray, &prims), want.is_some(), "any-hit, ray {ray:?}");
+    }
+    hits
+}
+
+fn random_soup(rng: &mut Rng, n: usize, size: f32) -> Vec<Shape> {
+    (0..n)
+        .map(|_| {
+            let c = rng.vec3(-1.0, 1.0);
+            if rng.f32() < 0.05 {
+                Shape::Sphere(Sphere {
+                    center: c,
+                    radius: rng.range(0.01, 0.2),
+                })
+            } else {
+                Shape::Triangle(Triangle::new(c, c + rng.vec3(-size, size), c + rng.vec3(-size, size)))
+            }
+        })
+        .collect()
+}
+
+fn random_rays(rng: &mut Rng, n: usize, spread: f32) -> Vec<Ray> {
+    (0..n)
+        .map(|_| {
+            let mut r = Ray::new(rng.vec3(-spread, spread), rng.dir());
+            if rng.f32() < 0.2 {
+                // Some bounded rays, like shadow rays.
+                r.t.max = rng.range(0.1, 2.0);
+            }
+            r
+        })
+        .collect()
+}
+
+#[test]
+fn random_soups_match_brute_force() {
+    let mut rng = Rng(7);
+    let mut hits = 0;
+    for (n, size) in [(1, 0.5), (2, 0.5), (10, 0.3), (100, 0.2), (1000, 0.1), (5000, 0.05)] {
+        let shapes = random_soup(&mut rng, n, size);
+        let rays = random_rays(&mut rng, 2000, 1.5);
+        hits += check(&shapes, rays.into_iter());
+    }
+    assert!(hits > 1000, "the rays must actually hit things ({hits})");
+}
+
+#[test]
+fn parallel_build_matches_brute_force() {
+    // Above the parallel threshold, subtrees are built on separate tasks and concatenated.
+    let mut rng = Rng(11);
+    let shapes = random_soup(&mut rng, 40_000, 0.02);
+    let rays = random_rays(&mut rng, 500, 1.2);
+    check(&shapes, rays.into_iter());
+}
+
+#[test]
+fn degenerate_inputs() {
+    let p = Vec3A::new(0.3, 0.2, 0.1);
+    let rays = |rng: &mut Rng| random_rays(rng, 300, 1.0).into_iter();
+    let mut rng = Rng(3);
+    // Empty.
+    let bvh = Bvh::build(&[], &BuildParams::default());
+    bvh.validate(&[]).unwrap();
+    assert!(bvh.nodes.is_empty());
+    check(&[], rays(&mut rng));
+    // One triangle.
+    check(
+        &[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))],
+        rays(&mut rng),
+    );
+    // Zero-area triangles (a point and a line), mixed with a real one.
+    let zero = vec![
+        Shape::Triangle(Triangle::new(p, p, p)),
+        Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, 2.0 * Vec3A::X)),
+        Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::Y, Vec3A::Z)),
+    ];
+    check(&zero, rays(&mut rng));
+    // NaN and infinite triangles are left out of the tree and never hit.
+    let nan = [
+        Shape::Triangle(Triangle::new(Vec3A::splat(f32::NAN), Vec3A::X, Vec3A::Y)),
+        Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::splat(f32::INFINITY), Vec3A::Y)),
+        Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Z)),
+    ];
+    let bounds: Vec<Aabb> = nan.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    bvh.validate(&bounds).unwrap();
+    assert_eq!(bvh.prim_indices, vec![2]);
+    // All primitives in one point (centroids coincide: no SAH plane exists).
+    let same: Vec<Shape> = (0..100)
+        .map(|_| Shape::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)))
+        .collect();
+    check(&same, rays(&mut rng));
+    let bounds: Vec<Aabb> = same.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    assert!(
+        bvh.stats().levels > 1,
+        "a large inseparable set is still split by count"
+    );
+    // NaN rays hit nothing and do not panic.
+    let tri = [Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))];
+    check(
+        &tri,
+        [
+            Ray::new(Vec3A::splat(f32::NAN), Vec3A::Z),
+            Ray::new(Vec3A::ZERO, Vec3A::splat(f32::NAN)),
+        ]
+        .into_iter(),
+    );
+    // Huge coordinates.
+    let huge: Vec<Shape> = random_soup(&mut rng, 200, 0.3)
+        .into_iter()
+        .map(|s| match s {
+            Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * 1e6, (t.v0 + t.e1) * 1e6, (t.v0 + t.e2) * 1e6)),
+            other => other,
+        })
+        .collect();
+    check(&huge, random_rays(&mut rng, 300, 1e6).into_iter());
+}
+
+#[test]
+fn axis_parallel_rays_through_box_faces() {
+    // Directions with zero components give infinite reciprocals; origins on slab planes give
+    // 0 * inf = NaN, which the slab test must ignore rather than miss.
+    let grid: Vec<Shape> = (0..10)
+        .flat_map(|i| {
+            (0..10).map(move |j| {
+                let o = Vec3A::new(i as f32, j as f32, 0.0);
+                Shape::Triangle(Triangle::new(o, o + Vec3A::X, o + Vec3A::Y))
+            })
+        })
+        .collect();
+    let mut rays = Vec::new();
+    for i in 0..10 {
+        for j in 0..10 {
+            rays.push(Ray::new(Vec3A::new(i as f32 + 0.25, j as f32 + 0.25, -1.0), Vec3A::Z));
+            rays.push(Ray::new(Vec3A::new(i as f32, j as f32 + 0.25, -1.0), Vec3A::Z));
+            rays.push(Ray::new(Vec3A::new(-1.0, j as f32 + 0.1, 0.0), Vec3A::X));
+        }
+    }
+    check(&grid, rays.into_iter());
+}
+
+fn scene_shapes(scene: &Scene) -> Vec<Shape> {
+    let mut shapes = vec![None; scene.prims.len()];
+    for (slot, &p) in scene.geometry.bvh.prim_indices.iter().enumerate() {
+        shapes[p as usize] = Some(scene.geometry.shapes[slot]);
+    }
+    shapes.into_iter().map(|s| s.unwrap()).collect()
+}
+
+#[test]
+fn course_scenes_match_brute_force() {
+    let assets = assets("course_scenes_match_brute_force");
+    let mut names = vec!["cornell-box", "cube", "single-triangle", "spheres"];
+    if assets.is_some() {
+        names.extend(["monkey", "teapot", "dragon"]);
+    }
+    let mut rng = Rng(5);
+    for name in names {
+        let scene = builtin_scene(name, assets.as_ref());
+        let shapes = scene_shapes(&scene);
+        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        scene.geometry.bvh.validate(&bounds).unwrap();
+        let n = if shapes.len() > 50_000 { 300 } else { 1500 };
+        // Camera rays of the default view, and random rays through the scene.
+        let cam = scene.camera();
+        let mut rays: Vec<Ray> = (0..n / 2)
+            .map(|i| cam.pixel_ray((i * 37) as u32 % 100, (i * 53) as u32 % 100, 100, 100))
+            .collect();
+        rays.extend(random_rays(&mut rng, n / 2, 1.0));
+        for ray in &rays {
+            let got = scene.intersect(ray);
+            let want = brute_closest(&shapes, ray);
+            assert_eq!(got.map(|h| h.t), want.map(|w| w.1.t), "{name}: ray {ray:?}");
+            assert_eq!(scene.occluded(ray), want.is_some(), "{name}");
+        }
+    }
+}
+
+#[test]
+fn level_boxes_cover_every_primitive() {
+    let mut rng = Rng(9);
+    let shapes = random_soup(&mut rng, 3000, 0.05);
+    let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    let stats = bvh.stats();
+    assert_eq!(stats.nodes, 2 * stats.leaves - 1);
+    assert!(stats.mean_leaf_size >= 1.0 && stats.mean_leaf_size <= 8.0);
+    for level in 0..stats.levels as u32 + 1 {
+        let boxes = bvh.boxes_at_level(level);
+        let covered: usize = boxes
+            .iter()
+            .map(|b| {
+                let n = &bvh.nodes[b.node as usize];
+                if n.is_leaf() {
+                    n.count as usize
+                } else {
+                    count_below(&bvh, b.node as usize)
+                }
+            })
+            .sum();
+        assert_eq!(covered, shapes.len(), "level {level}");
+    }
+    assert_eq!(bvh.boxes_at_level(0).len(), 1);
+}
+
+fn count_below(bvh: &Bvh, i: usize) -> usize {
+    let n = &bvh.nodes[i];
+    if n.is_leaf() {
+        n.count as usize
+    } else {
+        count_below(bvh, i + 1) + count_below(bvh, n.start as usize)
+    }
+}
+
+#[test]
+fn validate_catches_broken_trees() {
+    let mut rng = Rng(1);
+    let shapes = random_soup(&mut rng, 100, 0.1);
+    let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+    let good = Bvh::build(&bounds, &BuildParams::default());
+    let mut shrunk = good.clone();
+    shrunk.nodes[1].max = shrunk.nodes[1].min;
+    assert!(shrunk.validate(&bounds).is_err());
+    let mut dup = good.clone();
+    dup.prim_indices[1] = dup.prim_indices[0];
+    assert!(dup.validate(&bounds).is_err());
+    let mut bad_child = good.clone();
+    bad_child.nodes[0].start = 0;
+    assert!(bad_child.validate(&bounds).is_err());
+}

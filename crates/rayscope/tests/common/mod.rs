@@ -1,0 +1,81 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use rayscope::math::{Vec3, Vec3A};
+use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
+
+/// SplitMix64: a tiny seeded generator, so tests are reproducible without a dependency.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+
+    pub fn vec3(&mut self, lo: f32, hi: f32) -> Vec3A {
+        Vec3A::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+
+    /// Uniform on the unit sphere.
+    pub fn dir(&mut self) -> Vec3A {
+        loop {
+            let v = self.vec3(-1.0, 1.0);
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+}
+
+/// The asset folder, or `None` with a printed notice (the test then skips that part).
+pub fn assets(test: &str) -> Option<PathBuf> {
+    let candidates = [
+        std::env::var_os("RAYSCOPE_ASSETS").map(PathBuf::from),
+        Some(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")),
+    ];
+    let found = candidates.into_iter().flatten().find(|p| p.join("cube.obj").is_file());
+    if found.is_none() {
+        eprintln!(
+            "NOTICE: {test}: the course's scene folder (shared/scenes) is absent; skipping the parts that need it"
+        );
+    }
+    found
+}
+
+/// Load a built-in scene, with the asset folder when it needs one.
+pub fn builtin_scene(name: &str, assets: Option<&PathBuf>) -> Scene {
+    let desc = builtin::scene_desc(name).unwrap();
+    let ctx = LoadContext {
+        assets: assets.cloned(),
+        ..LoadContext::default()
+    };
+    Scene::from_desc(&desc, &ctx).unwrap()
+}
+
+/// A scene of one inline triangle mesh plus extra description.
+pub fn inline_scene(vertices: Vec<Vec3>, faces: Vec<[u32; 3]>) -> SceneDesc {
+    SceneDesc {
+        meshes: vec![MeshDesc {
+            vertices: Some(vertices),
+            faces: Some(faces),
+            ..MeshDesc::default()
+        }],
+        ..SceneDesc::default()
+    }
+}

@@ -1,0 +1,80 @@
+//! Image files: formats, atomic replacement, errors.
+
+use rayscope::film::FloatImage;
+use rayscope::output::{Encoding, read_pfm, to_rgb8, write_image};
+
+fn image() -> FloatImage {
+    FloatImage {
+        width: 3,
+        height: 2,
+        channels: 3,
+        data: (0..18).map(|i| i as f32 / 10.0 - 0.2).collect(),
+    }
+}
+
+#[test]
+fn pfm_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("a.pfm");
+    write_image(&image(), &p, Encoding::Linear).unwrap();
+    assert_eq!(read_pfm(&p).unwrap(), image());
+    let grey = FloatImage {
+        width: 2,
+        height: 2,
+        channels: 1,
+        data: vec![f32::NAN, 1.0, -1.0, 2.5],
+    };
+    write_image(&grey, &p, Encoding::Linear).unwrap();
+    let back = read_pfm(&p).unwrap();
+    assert!(back.data[0].is_nan() && back.data[1..] == grey.data[1..]);
+}
+
+#[test]
+fn png_and_exr_are_written() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["png", "exr"] {
+        let p = dir.path().join(format!("a.{ext}"));
+        write_image(&image(), &p, Encoding::Linear).unwrap();
+        assert!(std::fs::metadata(&p).unwrap().len() > 0);
+    }
+    let png = image::open(dir.path().join("a.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (3, 2));
+    assert_eq!(png.get_pixel(0, 0).0, [0, 0, 0], "clamped");
+    assert_eq!(png.get_pixel(1, 0).0, [26, 51, 77], "x255, rounded");
+}
+
+#[test]
+fn eight_bit_encodings() {
+    let img = FloatImage {
+        width: 3,
+        height: 1,
+        channels: 1,
+        data: vec![0.5, 2.0, f32::NAN],
+    };
+    assert_eq!(to_rgb8(&img, Encoding::Linear), vec![128, 255, 0]);
+    assert_eq!(to_rgb8(&img, Encoding::Srgb)[0], 188);
+}
+
+#[test]
+fn failed_writes_leave_existing_files_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("keep.png");
+    std::fs::write(&p, b"old").unwrap();
+    assert!(write_image(&image(), &dir.path().join("no/such/dir/x.png"), Encoding::Linear).is_err());
+    let bad_ext = dir.path().join("keep.jpg");
+    assert!(write_image(&image(), &bad_ext, Encoding::Linear).is_err());
+    assert!(!bad_ext.exists());
+    assert_eq!(std::fs::read(&p).unwrap(), b"old");
+    // No temporary files are left behind.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[cfg(unix)]
+#[test]
+fn written_files_are_ordinary_files() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("a.png");
+    write_image(&image(), &p, Encoding::Linear).unwrap();
+    assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o644);
+}
