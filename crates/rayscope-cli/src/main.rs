@@ -4,14 +4,21 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayscope::camera::CameraDesc;
+use rayscope::film::Film;
+use rayscope::filter::PixelFilter;
 use rayscope::material::TextureFilter;
+use rayscope::math::Vec3;
 use rayscope::output::{Encoding, Format, write_image};
+use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::RayTree;
-use rayscope::render::{Aov, RenderSettings, render, render_aov, trace_pixel};
+use rayscope::render::{Aov, RenderSettings, render_aov, render_cancellable, trace_pixel};
 use rayscope::scene::{Scene, builtin};
 
 #[derive(Parser)]
@@ -83,6 +90,51 @@ struct SettingsArgs {
     /// Texture filtering [default: bilinear].
     #[arg(long, value_enum)]
     texture_filter: Option<FilterArg>,
+    /// Samples (camera rays) per pixel, for anti-aliasing and motion blur [default: 1]; with
+    /// --progressive, samples per frame.
+    #[arg(long, value_name = "N")]
+    spp: Option<u32>,
+    /// Shadow rays per area light (soft shadows); 0 shades lights from their centre [default: 0].
+    #[arg(long, value_name = "N")]
+    light_samples: Option<u32>,
+    /// Rays per glossy reflection; 0 reflects as a perfect mirror [default: 0].
+    #[arg(long, value_name = "N")]
+    gloss_samples: Option<u32>,
+    /// Pixel filter for anti-aliasing [default: box].
+    #[arg(long, value_enum)]
+    filter: Option<PixelFilterArg>,
+    /// Seed of the random numbers [default: 0].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// The camera's pose when the shutter closes (motion blur): trackball rotation in degrees,
+    /// optionally followed by a distance: `RX,RY,RZ[,DIST]`.
+    #[arg(long, value_name = "RX,RY,RZ[,DIST]", value_parser = parse_camera_end)]
+    camera_end: Option<CameraEnd>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PixelFilterArg {
+    Box,
+    Tent,
+    Gaussian,
+}
+
+/// The `--camera-end` pose: trackball rotation and, optionally, distance.
+#[derive(Clone, Copy, Debug)]
+struct CameraEnd {
+    rotation: Vec3,
+    distance: Option<f32>,
+}
+
+fn parse_camera_end(s: &str) -> Result<CameraEnd, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|_| format!("'{p}' is not a number")))
+        .collect::<Result<_, _>>()?;
+    if !(3..=4).contains(&v.len()) || v.iter().any(|x| !x.is_finite()) {
+        return Err("expected RX,RY,RZ or RX,RY,RZ,DIST (finite numbers)".into());
+    }
+    Ok(CameraEnd { rotation: Vec3::new(v[0], v[1], v[2]), distance: v.get(3).copied() })
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -117,6 +169,16 @@ struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Render in frames of --spp samples, accumulating until --target-spp, --time-limit or
+    /// Ctrl-C.
+    #[arg(long)]
+    progressive: bool,
+    /// With --progressive: stop at this many samples per pixel.
+    #[arg(long, value_name = "N", requires = "progressive")]
+    target_spp: Option<u32>,
+    /// With --progressive: stop after the frame that passes this many seconds.
+    #[arg(long, value_name = "SECONDS", requires = "progressive")]
+    time_limit: Option<f64>,
 }
 
 #[derive(Args)]
@@ -126,15 +188,14 @@ struct DebugArgs {
     /// The pixel, `X,Y` from the top-left corner.
     #[arg(long, value_parser = parse_pixel)]
     pixel: (u32, u32),
+    /// Which of the pixel's samples to trace (0 to spp - 1).
+    #[arg(long, default_value_t = 0)]
+    sample: u32,
 }
 
 fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
     let (x, y) = s.split_once(',').ok_or("expected X,Y")?;
-    let p = |v: &str| {
-        v.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("'{v}' is not a pixel coordinate"))
-    };
+    let p = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("'{v}' is not a pixel coordinate"));
     Ok((p(x)?, p(y)?))
 }
 
@@ -162,11 +223,7 @@ fn cmd_scenes(export: Option<String>) -> Result<()> {
         return Ok(());
     }
     for b in builtin::BUILTINS {
-        let files = if b.needs_assets {
-            " (needs the asset folder)"
-        } else {
-            ""
-        };
+        let files = if b.needs_assets { " (needs the asset folder)" } else { "" };
         println!("{:<34}{}{}", b.name, b.description, files);
     }
     Ok(())
@@ -186,6 +243,17 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.transparency &= !f.no_transparency;
     s.textures &= !f.no_textures;
     s.interpolate_normals |= f.interpolate_normals;
+    s.spp = f.spp.unwrap_or(s.spp);
+    s.light_samples = f.light_samples.unwrap_or(s.light_samples);
+    s.gloss_samples = f.gloss_samples.unwrap_or(s.gloss_samples);
+    s.seed = f.seed.unwrap_or(s.seed);
+    if let Some(p) = f.filter {
+        s.filter = match p {
+            PixelFilterArg::Box => PixelFilter::Box,
+            PixelFilterArg::Tent => PixelFilter::Tent,
+            PixelFilterArg::Gaussian => PixelFilter::Gaussian,
+        };
+    }
     if let Some(t) = f.texture_filter {
         s.texture_filter = match t {
             FilterArg::Nearest => TextureFilter::Nearest,
@@ -193,6 +261,14 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
         };
     }
     s.validate()?;
+    let mut scene = scene;
+    if let Some(end) = &f.camera_end {
+        let CameraDesc::Trackball { look_at, distance, fov, .. } = scene.camera else {
+            bail!("--camera-end needs a trackball camera; give a look-at scene's end pose as `camera_end` in its file");
+        };
+        let distance = end.distance.unwrap_or(distance);
+        scene.camera_end = Some(CameraDesc::Trackball { look_at, distance, rotation: end.rotation, fov });
+    }
     Ok((scene, s))
 }
 
@@ -200,18 +276,13 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     if threads == Some(0) {
         bail!("--threads must be at least 1");
     }
-    Ok(rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.unwrap_or(0))
-        .build()?)
+    Ok(rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?)
 }
 
 fn cmd_render(args: RenderArgs) -> Result<()> {
     let format = Format::from_path(&args.output)?;
     if args.aov.is_some() && !format.is_float() {
-        bail!(
-            "{}: AOVs are float data; write them to .exr or .pfm",
-            args.output.display()
-        );
+        bail!("{}: AOVs are float data; write them to .exr or .pfm", args.output.display());
     }
     let (scene, settings) = load(&args.scene)?;
     let pool = thread_pool(args.scene.threads)?;
@@ -253,42 +324,84 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         let img = pool.install(|| render_aov(&scene, &settings, aov, &progress));
         bar.finish_and_clear();
         write_image(&img, &args.output, encoding)?;
-        eprintln!(
-            "{}",
-            summary(&format!("AOV in {:.1} ms", start.elapsed().as_secs_f64() * 1e3))
-        );
+        eprintln!("{}", summary(&format!("AOV in {:.1} ms", start.elapsed().as_secs_f64() * 1e3)));
         return Ok(());
     }
-    let out = pool.install(|| render(&scene, &settings, &progress));
+    let cancel = interrupt_flag();
+    let (film, rays, elapsed) = if args.progressive {
+        if args.target_spp.is_none() && args.time_limit.is_none() {
+            eprintln!("rendering progressively until Ctrl-C (give --target-spp or --time-limit to stop by itself)");
+        }
+        if let Some(target) = args.target_spp {
+            bar.set_length(target as u64);
+        }
+        bar.set_position(0);
+        let start = std::time::Instant::now();
+        let mut prog = Progressive::new(settings.clone(), ImagingMode::Dynamic, args.target_spp);
+        let camera = scene.camera_motion();
+        let mut rays = rayscope::integrator::RayCounts::default();
+        while !prog.is_done() && !cancel.load(Ordering::Relaxed) {
+            if args.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t) {
+                break;
+            }
+            let info = pool.install(|| prog.render_frame(&scene, &camera, &cancel, &|_| {}));
+            rays.add(info.rays);
+            bar.set_position(info.samples_per_pixel as u64);
+        }
+        (prog.film().clone(), rays, start.elapsed())
+    } else {
+        let out = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));
+        (out.film, out.rays, out.elapsed)
+    };
     bar.finish_and_clear();
-    write_image(&out.film.to_image(), &args.output, encoding)
+    write_image(&film.to_image(), &args.output, encoding)
         .with_context(|| format!("writing {}", args.output.display()))?;
+    let mrays = rays.total() as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
     eprintln!(
         "{}",
-        summary(&format!(
-            "render {:.1} ms, {:.2} Mrays/s",
-            out.elapsed.as_secs_f64() * 1e3,
-            out.mrays_per_second()
-        ))
+        summary(&format!("render {:.1} ms, {}, {mrays:.2} Mrays/s", elapsed.as_secs_f64() * 1e3, samples_note(&film)))
     );
+    if cancel.load(Ordering::Relaxed) {
+        eprintln!("interrupted: the image holds what was rendered ({})", samples_note(&film));
+    }
     Ok(())
+}
+
+fn samples_note(film: &Film) -> String {
+    match film.sample_range() {
+        (a, b) if a == b => format!("{a} spp"),
+        (a, b) => format!("{a} to {b} spp"),
+    }
+}
+
+/// A flag that Ctrl-C sets, so renders stop cleanly and write what they have; a second Ctrl-C
+/// exits at once.
+fn interrupt_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    let _ = ctrlc::set_handler(move || {
+        if f.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    flag
 }
 
 fn cmd_debug(args: DebugArgs) -> Result<()> {
     let (scene, settings) = load(&args.scene)?;
     let (x, y) = args.pixel;
     if x >= settings.width || y >= settings.height {
-        bail!(
-            "pixel {x},{y} is outside the {}x{} image",
-            settings.width,
-            settings.height
-        );
+        bail!("pixel {x},{y} is outside the {}x{} image", settings.width, settings.height);
     }
     let mut tree = RayTree::default();
-    let color = trace_pixel(&scene, &settings, x, y, &mut tree);
+    if args.sample >= settings.spp {
+        bail!("sample {} does not exist: the pixel has {} samples (--spp)", args.sample, settings.spp);
+    }
+    let color = trace_pixel(&scene, &settings, x, y, args.sample, &mut tree);
     let json = serde_json::json!({
         "scene": scene.name,
         "pixel": [x, y],
+        "sample": args.sample,
         "color": color.to_array(),
         "rays": tree.rays,
     });

@@ -20,18 +20,12 @@ fn stderr(o: &Output) -> String {
 fn default_render_works_anywhere() {
     // From an empty folder with no asset folder beside it.
     let dir = tempfile::tempdir().unwrap();
-    let o = rayscope(
-        dir.path(),
-        &["render", "-o", "out.png", "--width", "64", "--height", "48"],
-    );
+    let o = rayscope(dir.path(), &["render", "-o", "out.png", "--width", "64", "--height", "48"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(dir.path().join("out.png")).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));
     let err = stderr(&o);
-    assert!(
-        err.contains("cornell-box") && err.contains("Mrays/s") && err.contains("levels"),
-        "{err}"
-    );
+    assert!(err.contains("cornell-box") && err.contains("Mrays/s") && err.contains("levels"), "{err}");
 }
 
 #[test]
@@ -39,12 +33,8 @@ fn float_outputs_and_aovs() {
     let dir = tempfile::tempdir().unwrap();
     for args in [
         vec!["render", "spheres", "-o", "c.exr", "--width", "16", "--height", "16"],
-        vec![
-            "render", "-o", "d.pfm", "--aov", "depth", "--width", "16", "--height", "16",
-        ],
-        vec![
-            "render", "-o", "p.exr", "--aov", "prim-id", "--width", "16", "--height", "16",
-        ],
+        vec!["render", "-o", "d.pfm", "--aov", "depth", "--width", "16", "--height", "16"],
+        vec!["render", "-o", "p.exr", "--aov", "prim-id", "--width", "16", "--height", "16"],
     ] {
         let o = rayscope(dir.path(), &args);
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));
@@ -64,19 +54,10 @@ fn scenes_list_and_export_round_trip() {
     let o = rayscope(dir.path(), &["scenes", "--export", "spheres"]);
     assert!(o.status.success());
     std::fs::write(dir.path().join("s.toml"), &o.stdout).unwrap();
-    let a = rayscope(
-        dir.path(),
-        &["render", "s.toml", "-o", "a.pfm", "--width", "20", "--height", "20"],
-    );
-    let b = rayscope(
-        dir.path(),
-        &["render", "spheres", "-o", "b.pfm", "--width", "20", "--height", "20"],
-    );
+    let a = rayscope(dir.path(), &["render", "s.toml", "-o", "a.pfm", "--width", "20", "--height", "20"]);
+    let b = rayscope(dir.path(), &["render", "spheres", "-o", "b.pfm", "--width", "20", "--height", "20"]);
     assert!(a.status.success() && b.status.success(), "{}", stderr(&a));
-    assert_eq!(
-        std::fs::read(dir.path().join("a.pfm")).unwrap(),
-        std::fs::read(dir.path().join("b.pfm")).unwrap()
-    );
+    assert_eq!(std::fs::read(dir.path().join("a.pfm")).unwrap(), std::fs::read(dir.path().join("b.pfm")).unwrap());
 }
 
 #[test]
@@ -85,24 +66,11 @@ fn thread_count_does_not_change_the_image() {
     for t in ["1", "2"] {
         let o = rayscope(
             dir.path(),
-            &[
-                "render",
-                "-o",
-                &format!("t{t}.pfm"),
-                "--threads",
-                t,
-                "--width",
-                "50",
-                "--height",
-                "30",
-            ],
+            &["render", "-o", &format!("t{t}.pfm"), "--threads", t, "--width", "50", "--height", "30"],
         );
         assert!(o.status.success());
     }
-    assert_eq!(
-        std::fs::read(dir.path().join("t1.pfm")).unwrap(),
-        std::fs::read(dir.path().join("t2.pfm")).unwrap()
-    );
+    assert_eq!(std::fs::read(dir.path().join("t1.pfm")).unwrap(), std::fs::read(dir.path().join("t2.pfm")).unwrap());
 }
 
 #[test]
@@ -116,10 +84,7 @@ fn debug_prints_the_ray_tree() {
     let rays = v["rays"].as_array().unwrap();
     assert_eq!(rays[0]["kind"], "camera");
     assert!(rays[0]["hit"].is_object());
-    assert!(
-        rays.iter().any(|r| r["kind"] == "reflection" && r["parent"] == 0),
-        "{v}"
-    );
+    assert!(rays.iter().any(|r| r["kind"] == "reflection" && r["parent"] == 0), "{v}");
     assert!(!rays[0]["shadows"].as_array().unwrap().is_empty());
 }
 
@@ -149,27 +114,11 @@ fn bad_input_gives_clear_errors() {
     fails_with(d, &["render", "bad.obj", "-o", "o.png"], &["bad.obj:4", "out of range"]);
     fails_with(d, &["render", "nan.obj", "-o", "o.png"], &["nan.obj:2"]);
     fails_with(d, &["render", "mesh.toml", "-o", "o.png"], &["bad.obj:4"]);
-    fails_with(
-        d,
-        &["render", "bad.toml", "-o", "o.png"],
-        &["bad.toml:2", "expected a sequence of 3"],
-    );
-    fails_with(
-        d,
-        &["render", "unknown.toml", "-o", "o.png"],
-        &["unknown.toml:2", "widht"],
-    );
+    fails_with(d, &["render", "bad.toml", "-o", "o.png"], &["bad.toml:2", "expected a sequence of 3"]);
+    fails_with(d, &["render", "unknown.toml", "-o", "o.png"], &["unknown.toml:2", "widht"]);
     fails_with(d, &["render", "missing.toml", "-o", "o.png"], &["missing.toml"]);
-    fails_with(
-        d,
-        &["render", "no-such-scene", "-o", "o.png"],
-        &["unknown scene", "cornell-box"],
-    );
-    fails_with(
-        d,
-        &["render", "dragon", "-o", "o.png", "--assets", "nowhere"],
-        &["dragon.obj", "--assets"],
-    );
+    fails_with(d, &["render", "no-such-scene", "-o", "o.png"], &["unknown scene", "cornell-box"]);
+    fails_with(d, &["render", "dragon", "-o", "o.png", "--assets", "nowhere"], &["dragon.obj", "--assets"]);
     fails_with(d, &["render", "-o", "o.png", "--width", "0"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.png", "--width", "100000"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.jpg"], &["unknown image format"]);
@@ -178,10 +127,7 @@ fn bad_input_gives_clear_errors() {
     fails_with(d, &["debug", "--pixel", "900,1"], &["outside"]);
     // Nothing was written by any failing command.
     let written: Vec<_> = std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name()).collect();
-    assert!(
-        !written.iter().any(|n| n.to_string_lossy().starts_with('o')),
-        "{written:?}"
-    );
+    assert!(!written.iter().any(|n| n.to_string_lossy().starts_with('o')), "{written:?}");
 }
 
 #[test]
@@ -193,12 +139,8 @@ fn course_assets_via_env_and_flag() {
     }
     let dir = tempfile::tempdir().unwrap();
     let a = assets.to_str().unwrap();
-    let o = rayscope(
-        dir.path(),
-        &[
-            "render", "monkey", "-o", "m.png", "--assets", a, "--width", "32", "--height", "32",
-        ],
-    );
+    let o =
+        rayscope(dir.path(), &["render", "monkey", "-o", "m.png", "--assets", a, "--width", "32", "--height", "32"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = Command::new(env!("CARGO_BIN_EXE_rayscope"))
         .args(["render", "teapot", "-o", "t.png", "--width", "32", "--height", "32"])
@@ -206,5 +148,61 @@ fn course_assets_via_env_and_flag() {
         .env("RAYSCOPE_ASSETS", a)
         .output()
         .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn progressive_render_equals_one_shot() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = ["cornell-box-sphere-light", "--width", "24", "--height", "24", "--light-samples", "4"];
+    let mut a = vec!["render", "-o", "a.pfm", "--spp", "8"];
+    a.extend(common);
+    let mut b = vec!["render", "-o", "b.pfm", "--progressive", "--spp", "2", "--target-spp", "8"];
+    b.extend(common);
+    for args in [a, b] {
+        let o = rayscope(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains("8 spp"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(dir.path().join("a.pfm")).unwrap(), std::fs::read(dir.path().join("b.pfm")).unwrap());
+}
+
+#[test]
+fn ctrl_c_writes_what_was_rendered() {
+    let dir = tempfile::tempdir().unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_rayscope"))
+        .args(["render", "cornell-box-sphere-light", "-o", "p.png", "--progressive", "--light-samples", "8"])
+        .args(["--width", "64", "--height", "64"])
+        .current_dir(dir.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("interrupted") && err.contains("spp"), "{err}");
+    assert!(image::open(dir.path().join("p.png")).is_ok());
+}
+
+#[test]
+fn sampling_flags_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fails_with(d, &["render", "-o", "o.png", "--spp", "0"], &["samples per pixel"]);
+    fails_with(d, &["render", "-o", "o.png", "--light-samples", "9999999"], &["out of range"]);
+    fails_with(d, &["render", "-o", "o.png", "--target-spp", "4"], &["--progressive"]);
+    fails_with(d, &["render", "-o", "o.png", "--camera-end", "1,2"], &["RX,RY,RZ"]);
+    let o = rayscope(
+        d,
+        &["render", "-o", "blur.png", "--camera-end", "20,40,0", "--spp", "4", "--width", "16", "--height", "16"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = rayscope(
+        d,
+        &["render", "-o", "f.png", "--spp", "4", "--filter", "gaussian", "--width", "16", "--height", "16"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
 }

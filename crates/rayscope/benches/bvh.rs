@@ -22,16 +22,7 @@ fn dragon() -> Option<Scene> {
         return None;
     };
     let desc = builtin::scene_desc("dragon").unwrap();
-    Some(
-        Scene::from_desc(
-            &desc,
-            &LoadContext {
-                assets: Some(assets),
-                ..LoadContext::default()
-            },
-        )
-        .unwrap(),
-    )
+    Some(Scene::from_desc(&desc, &LoadContext { assets: Some(assets), ..LoadContext::default() }).unwrap())
 }
 
 fn bench(c: &mut Criterion) {
@@ -39,16 +30,12 @@ fn bench(c: &mut Criterion) {
     let bounds: Vec<Aabb> = scene.geometry.shapes.iter().map(|s| s.bounds()).collect();
     let mut g = c.benchmark_group("dragon");
     g.sample_size(20);
-    g.bench_function("build", |b| {
-        b.iter(|| Bvh::build(black_box(&bounds), &BuildParams::default()))
-    });
+    g.bench_function("build", |b| b.iter(|| Bvh::build(black_box(&bounds), &BuildParams::default())));
 
     let (w, h) = (800u32, 800u32);
     let cam = scene.camera();
-    let rays: Vec<Ray> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| cam.pixel_ray(x, y, w, h))
-        .collect();
+    let rays: Vec<Ray> =
+        (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| cam.pixel_ray(x, y, w, h)).collect();
     g.throughput(Throughput::Elements(rays.len() as u64));
     g.bench_function("closest_hit_primary_800x800_1thread", |b| {
         b.iter(|| rays.iter().filter(|r| scene.intersect(r).is_some()).count())
@@ -58,18 +45,11 @@ fn bench(c: &mut Criterion) {
         .filter_map(|r| scene.intersect(r).map(|hit| (r, hit)))
         .map(|(r, hit)| {
             let si = scene.surface(r, &hit, &Default::default());
-            Ray::spawn_to(
-                si.point,
-                si.geo_normal,
-                rayscope::math::Vec3A::new(-1.0, 1.0, -1.0),
-                0.0,
-            )
+            Ray::spawn_to(si.point, si.geo_normal, rayscope::math::Vec3A::new(-1.0, 1.0, -1.0), 0.0)
         })
         .collect();
     g.throughput(Throughput::Elements(shadow.len() as u64));
-    g.bench_function("any_hit_shadow_1thread", |b| {
-        b.iter(|| shadow.iter().filter(|r| scene.occluded(r)).count())
-    });
+    g.bench_function("any_hit_shadow_1thread", |b| b.iter(|| shadow.iter().filter(|r| scene.occluded(r)).count()));
     g.finish();
 }
 

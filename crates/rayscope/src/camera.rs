@@ -85,12 +85,7 @@ impl Camera {
     /// The camera a description stands for.
     pub fn from_desc(desc: &CameraDesc) -> Camera {
         match *desc {
-            CameraDesc::Trackball {
-                look_at,
-                distance,
-                rotation,
-                fov,
-            } => {
+            CameraDesc::Trackball { look_at, distance, rotation, fov } => {
                 let rotation = quat_from_euler_degrees(rotation);
                 Camera {
                     position: Vec3A::from(look_at + rotation * Vec3::new(0.0, 0.0, -distance)),
@@ -101,17 +96,10 @@ impl Camera {
             CameraDesc::LookAt { eye, target, up, fov } => {
                 let forward = (target - eye).normalize_or(Vec3::Z);
                 // Local +x is screen-left: up x forward.
-                let left = up
-                    .cross(forward)
-                    .try_normalize()
-                    .unwrap_or_else(|| forward.any_orthonormal_vector());
+                let left = up.cross(forward).try_normalize().unwrap_or_else(|| forward.any_orthonormal_vector());
                 let cam_up = forward.cross(left);
                 let rotation = Quat::from_mat3(&Mat3::from_cols(left, cam_up, forward)).normalize();
-                Camera {
-                    position: Vec3A::from(eye),
-                    rotation,
-                    fov_y: fov,
-                }
+                Camera { position: Vec3A::from(eye), rotation, fov_y: fov }
             }
         }
     }
@@ -129,18 +117,42 @@ impl Camera {
     /// `width x height` image, offset by `jitter` in `[0, 1)^2` (0.5 is the centre).
     #[inline]
     pub fn ndc(px: u32, py: u32, width: u32, height: u32, jitter: Vec2) -> Vec2 {
-        Vec2::new(
-            (px as f32 + jitter.x) / width as f32 * 2.0 - 1.0,
-            1.0 - (py as f32 + jitter.y) / height as f32 * 2.0,
-        )
+        Vec2::new((px as f32 + jitter.x) / width as f32 * 2.0 - 1.0, 1.0 - (py as f32 + jitter.y) / height as f32 * 2.0)
     }
 
     /// The primary ray through the centre of pixel `(px, py)`.
     pub fn pixel_ray(&self, px: u32, py: u32, width: u32, height: u32) -> Ray {
-        self.ray(
-            Camera::ndc(px, py, width, height, Vec2::splat(0.5)),
-            width as f32 / height as f32,
-        )
+        self.ray(Camera::ndc(px, py, width, height, Vec2::splat(0.5)), width as f32 / height as f32)
+    }
+}
+
+/// A camera that may move during the exposure: `start` at shutter time 0, `end` at 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraMotion {
+    /// The pose when the shutter opens.
+    pub start: Camera,
+    /// The pose when it closes (`None`: the camera stands still).
+    pub end: Option<Camera>,
+}
+
+impl CameraMotion {
+    /// A camera that does not move.
+    pub fn still(camera: Camera) -> CameraMotion {
+        CameraMotion { start: camera, end: None }
+    }
+
+    /// The pose at shutter time `t` in `[0, 1)`: positions and fields of view interpolated
+    /// linearly, orientations by slerp.
+    #[inline]
+    pub fn at(&self, t: f32) -> Camera {
+        match &self.end {
+            Some(end) if *end != self.start => Camera {
+                position: self.start.position.lerp(end.position, t),
+                rotation: self.start.rotation.slerp(end.rotation, t),
+                fov_y: self.start.fov_y + (end.fov_y - self.start.fov_y) * t,
+            },
+            _ => self.start,
+        }
     }
 }
 
@@ -152,10 +164,7 @@ mod tests {
     fn default_trackball_looks_at_origin_from_above() {
         let cam = Camera::from_desc(&CameraDesc::default());
         assert!((cam.position.length() - 3.0).abs() < 1e-5);
-        assert!(
-            cam.position.y > 0.0,
-            "rotation (20,20,0) lifts the eye above the look-at point"
-        );
+        assert!(cam.position.y > 0.0, "rotation (20,20,0) lifts the eye above the look-at point");
         let centre = cam.ray(Vec2::ZERO, 1.0);
         let to_origin = (-cam.position).normalize();
         assert!(centre.dir.dot(to_origin) > 1.0 - 1e-6);
@@ -176,16 +185,31 @@ mod tests {
     }
 
     #[test]
+    fn motion_interpolates_between_poses() {
+        let a = Camera::from_desc(&CameraDesc::default());
+        let b = Camera::from_desc(&CameraDesc::Trackball {
+            look_at: Vec3::ZERO,
+            distance: 3.0,
+            rotation: Vec3::new(20.0, 60.0, 0.0),
+            fov: 50.0,
+        });
+        let m = CameraMotion { start: a, end: Some(b) };
+        assert!(m.at(0.0).position.distance(a.position) < 1e-6 && m.at(0.0).rotation.dot(a.rotation) > 1.0 - 1e-6);
+        assert_eq!(CameraMotion { start: a, end: Some(a) }.at(0.3), a, "no motion is exactly still");
+        let mid = m.at(0.5);
+        // Slerp keeps the eye on the trackball's sphere only for the rotation; the position is
+        // a straight line, so the midpoint lies inside it.
+        assert!(mid.position.length() < 3.0 && mid.position.length() > 2.8);
+        let still = CameraMotion::still(a);
+        assert_eq!(still.at(0.7), a);
+    }
+
+    #[test]
     fn look_at_matches_equivalent_trackball() {
         let tb = Camera::from_desc(&CameraDesc::default());
         let target = Vec3::ZERO;
         let up = tb.rotation * Vec3::Y;
-        let la = Camera::from_desc(&CameraDesc::LookAt {
-            eye: Vec3::from(tb.position),
-            target,
-            up,
-            fov: 50.0,
-        });
+        let la = Camera::from_desc(&CameraDesc::LookAt { eye: Vec3::from(tb.position), target, up, fov: 50.0 });
         for ndc in [Vec2::new(0.3, -0.7), Vec2::new(-1.0, 1.0)] {
             let (a, b) = (tb.ray(ndc, 1.0), la.ray(ndc, 1.0));
             assert!(a.dir.dot(b.dir) > 1.0 - 1e-6, "{ndc}");

@@ -53,18 +53,11 @@ pub enum Error {
 impl Error {
     /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Error {
-        Error::Io {
-            path: path.into(),
-            source,
-        }
+        Error::Io { path: path.into(), source }
     }
 
     /// A parse error in `path` at `line`.
     pub fn parse(path: impl Into<PathBuf>, line: Option<usize>, message: impl Into<String>) -> Error {
-        Error::Parse {
-            path: path.into(),
-            line,
-            message: message.into(),
-        }
+        Error::Parse { path: path.into(), line, message: message.into() }
     }
 }

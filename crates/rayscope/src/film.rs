@@ -2,22 +2,22 @@
 
 use crate::math::Color;
 
-/// A linear-RGB colour image.
+/// A linear-RGB accumulation film: per pixel, the sum of its samples and their count. The
+/// pixel's value is their mean. Samples are added one at a time in sample order, so the same
+/// samples give bit-identical sums however the work was split into frames or threads.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     width: u32,
     height: u32,
-    pixels: Vec<Color>,
+    sum: Vec<Color>,
+    count: Vec<u32>,
 }
 
 impl Film {
-    /// A black film.
+    /// A film with no samples.
     pub fn new(width: u32, height: u32) -> Film {
-        Film {
-            width,
-            height,
-            pixels: vec![Color::ZERO; width as usize * height as usize],
-        }
+        let n = width as usize * height as usize;
+        Film { width, height, sum: vec![Color::ZERO; n], count: vec![0; n] }
     }
 
     /// Width in pixels.
@@ -30,24 +30,53 @@ impl Film {
         self.height
     }
 
-    /// Pixels in rows from the top.
-    pub fn pixels(&self) -> &[Color] {
-        &self.pixels
+    #[inline]
+    fn index(&self, x: u32, y: u32) -> usize {
+        y as usize * self.width as usize + x as usize
     }
 
-    /// Pixel `(x, y)`, row 0 at the top.
+    /// The value of pixel `(x, y)` (row 0 at the top): the mean of its samples, black if none.
     pub fn get(&self, x: u32, y: u32) -> Color {
-        self.pixels[(y * self.width + x) as usize]
+        let i = self.index(x, y);
+        if self.count[i] == 0 { Color::ZERO } else { self.sum[i] / self.count[i] as f32 }
     }
 
-    /// Set pixel `(x, y)`.
-    pub fn set(&mut self, x: u32, y: u32, c: Color) {
-        self.pixels[(y * self.width + x) as usize] = c;
+    /// Samples accumulated in pixel `(x, y)`.
+    pub fn samples(&self, x: u32, y: u32) -> u32 {
+        self.count[self.index(x, y)]
+    }
+
+    /// The fewest and the most samples of any pixel.
+    pub fn sample_range(&self) -> (u32, u32) {
+        let min = self.count.iter().copied().min().unwrap_or(0);
+        let max = self.count.iter().copied().max().unwrap_or(0);
+        (min, max)
+    }
+
+    /// Per-pixel sums and counts, rows from the top (what the renderer accumulates into).
+    pub fn raw(&self) -> (&[Color], &[u32]) {
+        (&self.sum, &self.count)
+    }
+
+    /// Mutable sums and counts.
+    pub fn raw_mut(&mut self) -> (&mut [Color], &mut [u32]) {
+        (&mut self.sum, &mut self.count)
+    }
+
+    /// Forget every sample.
+    pub fn clear(&mut self) {
+        self.sum.fill(Color::ZERO);
+        self.count.fill(0);
+    }
+
+    /// Every pixel's value, rows from the top.
+    pub fn pixels(&self) -> Vec<Color> {
+        (0..self.height).flat_map(|y| (0..self.width).map(move |x| (x, y))).map(|(x, y)| self.get(x, y)).collect()
     }
 
     /// Mean of all pixels.
     pub fn mean(&self) -> Color {
-        self.pixels.iter().copied().sum::<Color>() / self.pixels.len().max(1) as f32
+        self.pixels().iter().copied().sum::<Color>() / (self.sum.len().max(1)) as f32
     }
 
     /// As a 3-channel float image.
@@ -56,7 +85,7 @@ impl Film {
             width: self.width,
             height: self.height,
             channels: 3,
-            data: self.pixels.iter().flat_map(|c| c.to_array()).collect(),
+            data: self.pixels().iter().flat_map(|c| c.to_array()).collect(),
         }
     }
 }

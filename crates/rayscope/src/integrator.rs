@@ -1,16 +1,19 @@
-//! The Whitted integrator in the course's form: Phong direct lighting with shadow rays,
-//! recursive mirror reflection weighted by `ks`, and transparency blended by `1 - d`.
+//! The Whitted integrator in the course's form: Phong direct lighting with shadow rays (hard,
+//! or soft from sampled area lights), recursive mirror or glossy reflection weighted by `ks`,
+//! and transparency blended by `1 - d`.
 
-use crate::math::{Color, Vec3A, reflect};
+use crate::light::LightSample;
+use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
-use crate::record::{RayKind, RayRecorder, RecordedHit};
+use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent};
 use crate::render::RenderSettings;
+use crate::sampler::{PixelSampler, stratum_1d, stratum_2d};
 use crate::scene::{Scene, SurfaceInteraction};
 
 /// Counts of rays cast, for throughput figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RayCounts {
-    /// Camera, reflection and transmission rays (closest-hit queries).
+    /// Camera, reflection, glossy and transmission rays (closest-hit queries).
     pub primary_and_secondary: u64,
     /// Shadow rays (any-hit queries).
     pub shadow: u64,
@@ -29,6 +32,26 @@ impl RayCounts {
     }
 }
 
+/// What one camera sample carries down its ray tree.
+pub struct PathContext<'r, R: RayRecorder> {
+    /// The sample's random numbers.
+    pub sampler: PixelSampler,
+    /// Who watches the rays.
+    pub recorder: &'r mut R,
+    /// Rays cast so far.
+    pub counts: RayCounts,
+    /// Whether a glossy reflection has already been split into many rays on this path: later
+    /// glossy hits cast one ray each, so the tree grows linearly with depth, not as N^depth.
+    pub glossy_split: bool,
+}
+
+impl<'r, R: RayRecorder> PathContext<'r, R> {
+    /// A fresh context for one camera sample.
+    pub fn new(sampler: PixelSampler, recorder: &'r mut R) -> Self {
+        PathContext { sampler, recorder, counts: RayCounts::default(), glossy_split: false }
+    }
+}
+
 /// Traces rays through one scene with one set of settings.
 pub struct Integrator<'a> {
     /// The scene.
@@ -44,93 +67,147 @@ impl<'a> Integrator<'a> {
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`.
-    pub fn li<R: RayRecorder>(
-        &self,
-        ray: &Ray,
-        kind: RayKind,
-        depth: u32,
-        rec: &mut R,
-        counts: &mut RayCounts,
-    ) -> Color {
-        rec.begin_ray(kind, depth, ray);
-        counts.primary_and_secondary += 1;
+    pub fn li<R: RayRecorder>(&self, ray: &Ray, kind: RayKind, depth: u32, ctx: &mut PathContext<R>) -> Color {
+        ctx.recorder.begin_ray(kind, depth, ray);
+        ctx.counts.primary_and_secondary += 1;
         let color = match self.scene.intersect(ray) {
             None => {
-                rec.hit(None);
+                ctx.recorder.hit(None);
                 self.settings.background
             }
             Some(hit) => {
                 let si = self.scene.surface(ray, &hit, self.settings);
-                rec.hit(Some(RecordedHit {
-                    t: hit.t,
-                    point: si.point.to_array(),
-                    prim: hit.prim,
-                    material: si.material,
-                    geo_normal: si.geo_normal.to_array(),
-                    shading_normal: si.shading_normal.to_array(),
-                }));
-                self.shade(ray, &si, depth, rec, counts)
+                if R::RECORDS {
+                    ctx.recorder.hit(Some(RecordedHit {
+                        t: hit.t,
+                        point: si.point.to_array(),
+                        prim: hit.prim,
+                        material: si.material,
+                        geo_normal: si.geo_normal.to_array(),
+                        shading_normal: si.shading_normal.to_array(),
+                    }));
+                }
+                self.shade(ray, &si, depth, ctx)
             }
         };
-        rec.end_ray(color);
+        ctx.recorder.end_ray(color);
         color
     }
 
-    fn shade<R: RayRecorder>(
-        &self,
-        ray: &Ray,
-        si: &SurfaceInteraction,
-        depth: u32,
-        rec: &mut R,
-        counts: &mut RayCounts,
-    ) -> Color {
+    fn shade<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, depth: u32, ctx: &mut PathContext<R>) -> Color {
         let s = self.settings;
         let mat = &self.scene.materials[si.material as usize];
         if !s.shading {
             // The course's "shading off" view: the diffuse colour as it is.
             return si.kd;
         }
-        let mut color = self.direct(ray, si, rec, counts);
+        let mut color = self.direct(ray, si, ctx);
         let recurse = depth < s.max_depth;
         if recurse && s.reflections && mat.ks.max_element() > 0.0 {
-            let dir = reflect(ray.dir, si.shading_normal).normalize();
-            // A shading normal can tilt the mirror direction below the surface; such a ray
-            // would start inside the object, so reflect about the geometric normal instead.
-            let dir = if dir.dot(si.geo_normal) > 0.0 {
-                dir
-            } else {
-                reflect(ray.dir, si.geo_normal).normalize()
-            };
-            let r = Ray::spawn(si.point, si.geo_normal, dir, ray.time);
-            color += mat.ks * self.li(&r, RayKind::Reflection, depth + 1, rec, counts);
+            color += mat.ks * self.reflection(ray, si, depth, ctx);
         }
         if recurse && s.transparency && mat.transparency < 1.0 {
             let r = Ray::spawn(si.point, si.geo_normal, ray.dir, ray.time);
-            let behind = self.li(&r, RayKind::Transmission, depth + 1, rec, counts);
+            let behind = self.li(&r, RayKind::Transmission, depth + 1, ctx);
             color = mat.transparency * color + (1.0 - mat.transparency) * behind;
         }
         color
     }
 
-    /// Phong direct lighting from every light, each shaded from its centre, with shadow rays.
-    fn direct<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, rec: &mut R, counts: &mut RayCounts) -> Color {
+    /// The light the surface reflects specularly: along the mirror direction, or averaged over
+    /// `gloss_samples` directions drawn from the Phong lobe `cos^n` around it, with `n` the
+    /// material's `glossiness` (its `shininess` unless set; infinite for a perfect mirror).
+    ///
+    /// Directions are drawn with density `(n + 1) / 2pi * cos^n(alpha)`, so the plain mean of
+    /// the returned colours estimates the lobe-weighted reflection without bias. The course
+    /// drew directions at random and weighted each by its dot product with the mirror ray; that
+    /// estimates a similar blur but spends rays where the weight is small. As `n` grows both
+    /// converge to the mirror image. Lobe directions that fall below the surface are folded
+    /// back above it (mirrored in the tangent plane), so they still carry light.
+    fn reflection<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        depth: u32,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
+        let mat = &self.scene.materials[si.material as usize];
+        let mirror = reflect(ray.dir, si.shading_normal).normalize();
+        // A shading normal can tilt the mirror direction below the surface; such a ray would
+        // start inside the object, so reflect about the geometric normal instead.
+        let mirror = if mirror.dot(si.geo_normal) > 0.0 { mirror } else { reflect(ray.dir, si.geo_normal).normalize() };
+        let exponent = mat.glossiness.unwrap_or(mat.shininess);
+        if self.settings.gloss_samples == 0 || !exponent.is_finite() {
+            let r = Ray::spawn(si.point, si.geo_normal, mirror, ray.time);
+            return self.li(&r, RayKind::Reflection, depth + 1, ctx);
+        }
+        let n = if ctx.glossy_split { 1 } else { self.settings.gloss_samples };
+        let was_split = ctx.glossy_split;
+        ctx.glossy_split = true;
         let mut sum = Color::ZERO;
-        let view = -ray.dir;
+        for i in 0..n {
+            let u = stratum_2d(i, n, ctx.sampler.next_2d());
+            let mut dir = sample_phong_lobe(mirror, exponent.max(0.0), u);
+            let below = dir.dot(si.geo_normal);
+            if below <= 0.0 {
+                dir = (dir - 2.0 * below * si.geo_normal).normalize();
+            }
+            let r = Ray::spawn(si.point, si.geo_normal, dir, ray.time);
+            sum += self.li(&r, RayKind::Glossy, depth + 1, ctx);
+        }
+        ctx.glossy_split = was_split;
+        sum / n as f32
+    }
+
+    /// Phong direct lighting from every light, with shadow rays. With `light_samples == 0`
+    /// each light is shaded from its centre (hard shadows); otherwise each area light gets
+    /// that many stratified samples, each shaded as a point light of the light's colour there,
+    /// and contributes their mean.
+    fn direct<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, ctx: &mut PathContext<R>) -> Color {
+        let mut sum = Color::ZERO;
+        let n = self.settings.light_samples;
         for (i, light) in self.scene.lights.iter().enumerate() {
-            let ls = light.center_sample(si.point);
-            let cos = si.shading_normal.dot(ls.wi);
-            // A light behind the surface (as seen from the viewer's side) contributes nothing;
-            // no shadow ray is needed to know that.
-            if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 {
+            if n == 0 || matches!(light, crate::light::Light::Point { .. }) {
+                sum += self.shade_sample(ray, si, i, &light.center_sample(si.point), ctx);
                 continue;
             }
-            let arrived = self.visibility(si, ls.point, ray.time, i, rec, counts);
-            if arrived == Color::ZERO {
-                continue;
+            let segment = matches!(light, crate::light::Light::Segment { .. });
+            let mut acc = Color::ZERO;
+            for k in 0..n {
+                let u = if segment {
+                    Vec2::new(stratum_1d(k, n, ctx.sampler.next_f32()), 0.5)
+                } else {
+                    stratum_2d(k, n, ctx.sampler.next_2d())
+                };
+                let ls = light.sample(si.point, u);
+                acc += self.shade_sample(ray, si, i, &ls, ctx);
             }
-            sum += arrived * ls.color * self.phong(si, ls.wi, view, cos);
+            sum += acc / n as f32;
         }
         sum
+    }
+
+    /// One light point as a point light: Phong times the light's colour times what the shadow
+    /// ray lets through.
+    fn shade_sample<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        light: usize,
+        ls: &LightSample,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
+        let cos = si.shading_normal.dot(ls.wi);
+        // A light point behind the surface (as seen from the viewer's side) contributes
+        // nothing; no shadow ray is needed to know that.
+        if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
+            return Color::ZERO;
+        }
+        let arrived = self.visibility(si, ls, ray.time, light, ctx);
+        if arrived == Color::ZERO {
+            return Color::ZERO;
+        }
+        arrived * ls.color * self.phong(si, ls.wi, -ray.dir, cos)
     }
 
     /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`.
@@ -140,40 +217,49 @@ impl<'a> Integrator<'a> {
         let diffuse = si.kd * cos;
         let r = reflect(-wi, si.shading_normal);
         let spec = r.dot(view).max(0.0);
-        let specular = if mat.ks == Color::ZERO || spec == 0.0 {
-            Color::ZERO
-        } else {
-            mat.ks * spec.powf(mat.shininess)
-        };
+        let specular =
+            if mat.ks == Color::ZERO || spec == 0.0 { Color::ZERO } else { mat.ks * spec.powf(mat.shininess) };
         diffuse + specular
     }
 
-    /// The fraction of light from `target` that reaches `si` (all of it without shadows).
+    /// The fraction of light from `ls` that reaches `si` (all of it without shadows).
     fn visibility<R: RayRecorder>(
         &self,
         si: &SurfaceInteraction,
-        target: Vec3A,
+        ls: &LightSample,
         time: f32,
         light: usize,
-        rec: &mut R,
-        counts: &mut RayCounts,
+        ctx: &mut PathContext<R>,
     ) -> Color {
         if !self.settings.shadows {
             return Color::ONE;
         }
-        counts.shadow += 1;
-        let ray = Ray::spawn_to(si.point, si.geo_normal, target, time);
+        ctx.counts.shadow += 1;
+        let ray = Ray::spawn_to(si.point, si.geo_normal, ls.point, time);
         let t = self.scene.transmittance(&ray, self.settings);
         if R::RECORDS {
             // Only the debugger wants to know where the blocker is: an extra query, never paid
             // by normal renders.
-            let blocked_at = if t == Color::ZERO {
-                self.scene.intersect(&ray).map(|h| ray.at(h.t))
-            } else {
-                None
-            };
-            rec.shadow(light, ray.origin, target, blocked_at, t);
+            let blocked_at = if t == Color::ZERO { self.scene.intersect(&ray).map(|h| ray.at(h.t)) } else { None };
+            ctx.recorder.shadow(&ShadowEvent {
+                light,
+                from: ray.origin,
+                to: ls.point,
+                light_color: ls.color,
+                blocked_at,
+                transmitted: t,
+            });
         }
         t
     }
+}
+
+/// A direction around unit vector `axis` with density `(n + 1) / 2pi * cos^n(alpha)`, where
+/// `alpha` is the angle to the axis, from uniform numbers `u`.
+pub fn sample_phong_lobe(axis: Vec3A, n: f32, u: Vec2) -> Vec3A {
+    let cos = u.x.powf(1.0 / (n + 1.0));
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    let (t1, t2) = axis.any_orthonormal_pair();
+    (sin * phi.cos()) * t1 + (sin * phi.sin()) * t2 + cos * axis
 }

@@ -80,21 +80,10 @@ impl Light {
     pub fn point_at(&self, u: Vec2) -> (Vec3A, Color) {
         match *self {
             Light::Point { position, color } => (position.into(), color),
-            Light::Segment {
-                endpoint0,
-                endpoint1,
-                color0,
-                color1,
-            } => (endpoint0.lerp(endpoint1, u.x).into(), color0.lerp(color1, u.x)),
-            Light::Parallelogram {
-                v0,
-                edge01,
-                edge02,
-                color0,
-                color1,
-                color2,
-                color3,
-            } => {
+            Light::Segment { endpoint0, endpoint1, color0, color1 } => {
+                (endpoint0.lerp(endpoint1, u.x).into(), color0.lerp(color1, u.x))
+            }
+            Light::Parallelogram { v0, edge01, edge02, color0, color1, color2, color3 } => {
                 let c = color0.lerp(color1, u.x).lerp(color2.lerp(color3, u.x), u.y);
                 ((v0 + u.x * edge01 + u.y * edge02).into(), c)
             }
@@ -108,12 +97,77 @@ impl Light {
         let (point, color) = self.point_at(Vec2::splat(0.5));
         let to = point - p;
         let distance = to.length();
-        LightSample {
-            point,
-            wi: to / distance,
-            distance,
-            color,
-            pdf: 1.0,
+        LightSample { point, wi: to / distance, distance, color, pdf: 1.0 }
+    }
+
+    /// A point on the light for shading point `p`, chosen by `u` in `[0,1)^2`, with the
+    /// light's colour there. Point lights ignore `u`. Segments and parallelograms are sampled
+    /// uniformly by length/area (`pdf` per unit length/area). Sphere lights are sampled
+    /// uniformly in the cone of directions that the sphere subtends from `p` (`pdf` per
+    /// steradian), so every sample lands on the cap that `p` can see; from inside the sphere,
+    /// uniformly over its surface. (The course's reports drew latitude and longitude uniformly
+    /// and re-drew points facing away, which crowds samples at the poles and wastes draws.)
+    pub fn sample(&self, p: Vec3A, u: Vec2) -> LightSample {
+        let at = |point: Vec3A, color: Color, pdf: f32| {
+            let to = point - p;
+            let distance = to.length();
+            let wi = if distance > 0.0 { to / distance } else { Vec3A::ZERO };
+            LightSample { point, wi, distance, color, pdf }
+        };
+        match *self {
+            Light::Point { .. } => {
+                let (point, color) = self.point_at(u);
+                at(point, color, 1.0)
+            }
+            Light::Segment { endpoint0, endpoint1, .. } => {
+                let (point, color) = self.point_at(u);
+                let len = endpoint0.distance(endpoint1);
+                at(point, color, if len > 0.0 { 1.0 / len } else { 1.0 })
+            }
+            Light::Parallelogram { edge01, edge02, .. } => {
+                let (point, color) = self.point_at(u);
+                let area = edge01.cross(edge02).length();
+                at(point, color, if area > 0.0 { 1.0 / area } else { 1.0 })
+            }
+            Light::Sphere { center, radius, color } => {
+                let c = Vec3A::from(center);
+                let d2 = c.distance_squared(p);
+                let r2 = radius * radius;
+                if radius <= 0.0 {
+                    return at(c, color, 1.0);
+                }
+                if d2 <= r2 {
+                    // Inside the light: every direction sees it; sample its whole surface.
+                    let z = 1.0 - 2.0 * u.x;
+                    let s = (1.0 - z * z).max(0.0).sqrt();
+                    let phi = std::f32::consts::TAU * u.y;
+                    let n = Vec3A::new(s * phi.cos(), s * phi.sin(), z);
+                    return at(c + radius * n, color, 1.0 / (4.0 * std::f32::consts::PI * r2));
+                }
+                let d = d2.sqrt();
+                let w = (c - p) / d;
+                let sin2_max = r2 / d2;
+                // 1 - cos(theta_max), by its series for small cones, where the direct form
+                // loses every digit to cancellation.
+                let one_minus_cos_max = if sin2_max < 1e-3 {
+                    sin2_max * (0.5 + sin2_max / 8.0)
+                } else {
+                    1.0 - (1.0 - sin2_max).max(0.0).sqrt()
+                };
+                let one_minus_cos = u.x * one_minus_cos_max;
+                let cos = 1.0 - one_minus_cos;
+                let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+                let phi = std::f32::consts::TAU * u.y;
+                let (t1, t2) = w.any_orthonormal_pair();
+                let dir = (sin * phi.cos()) * t1 + (sin * phi.sin()) * t2 + cos * w;
+                // Where the direction meets the sphere: the near root of |p + t dir - c| = r.
+                // `b` is the distance to the closest approach, `h2` the half chord squared.
+                let b = d * cos;
+                let h2 = (r2 - d2 * sin * sin).max(0.0);
+                let t = b - h2.sqrt();
+                let pdf = 1.0 / (std::f32::consts::TAU * one_minus_cos_max);
+                at(p + t * dir, color, pdf)
+            }
         }
     }
 
@@ -127,21 +181,12 @@ impl Light {
         let v = |x: &Vec3| x.is_finite();
         match self {
             Light::Point { position, color } => v(position) && v(color),
-            Light::Segment {
-                endpoint0,
-                endpoint1,
-                color0,
-                color1,
-            } => [endpoint0, endpoint1, color0, color1].into_iter().all(v),
-            Light::Parallelogram {
-                v0,
-                edge01,
-                edge02,
-                color0,
-                color1,
-                color2,
-                color3,
-            } => [v0, edge01, edge02, color0, color1, color2, color3].into_iter().all(v),
+            Light::Segment { endpoint0, endpoint1, color0, color1 } => {
+                [endpoint0, endpoint1, color0, color1].into_iter().all(v)
+            }
+            Light::Parallelogram { v0, edge01, edge02, color0, color1, color2, color3 } => {
+                [v0, edge01, edge02, color0, color1, color2, color3].into_iter().all(v)
+            }
             Light::Sphere { center, radius, color } => v(center) && v(color) && radius.is_finite() && *radius >= 0.0,
         }
     }
@@ -170,13 +215,28 @@ mod tests {
     }
 
     #[test]
+    fn sphere_samples_lie_on_the_visible_cap() {
+        let l = Light::Sphere { center: Vec3::new(0.0, 3.0, 0.0), radius: 1.0, color: Vec3::ONE };
+        let p = Vec3A::ZERO;
+        for i in 0..64 {
+            for j in 0..64 {
+                let u = Vec2::new((i as f32 + 0.5) / 64.0, (j as f32 + 0.5) / 64.0);
+                let s = l.sample(p, u);
+                let n = (s.point - Vec3A::new(0.0, 3.0, 0.0)).normalize();
+                assert!(((s.point - Vec3A::new(0.0, 3.0, 0.0)).length() - 1.0).abs() < 1e-4);
+                // Visible from p: the sphere's normal there faces p.
+                assert!(n.dot(-s.wi) >= -1e-3, "{:?}", s.point);
+            }
+        }
+        // A zero-radius sphere is its centre.
+        let dot = Light::Sphere { center: Vec3::Y, radius: 0.0, color: Vec3::ONE };
+        assert_eq!(dot.sample(p, Vec2::new(0.3, 0.7)).point, Vec3A::Y);
+    }
+
+    #[test]
     fn segment_centre_is_midpoint_with_mean_colour() {
-        let l = Light::Segment {
-            endpoint0: Vec3::ZERO,
-            endpoint1: Vec3::X * 2.0,
-            color0: Vec3::ONE,
-            color1: Vec3::ZERO,
-        };
+        let l =
+            Light::Segment { endpoint0: Vec3::ZERO, endpoint1: Vec3::X * 2.0, color0: Vec3::ONE, color1: Vec3::ZERO };
         let s = l.center_sample(Vec3A::new(1.0, 1.0, 0.0));
         assert_eq!(s.point, Vec3A::X);
         assert_eq!(s.color, Vec3::splat(0.5));

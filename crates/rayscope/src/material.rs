@@ -21,6 +21,9 @@ pub struct Material {
     pub transparency: f32,
     /// Index of the diffuse texture in [`crate::scene::Scene::textures`]; replaces `kd`.
     pub texture: Option<usize>,
+    /// Phong exponent of the glossy reflection lobe; `None` uses `shininess`, infinity keeps
+    /// the material a perfect mirror even when glossy reflections are on.
+    pub glossiness: Option<f32>,
 }
 
 impl Default for Material {
@@ -34,6 +37,7 @@ impl Default for Material {
             shininess: 1.0,
             transparency: 1.0,
             texture: None,
+            glossiness: None,
         }
     }
 }
@@ -60,6 +64,9 @@ pub struct MaterialDesc {
     /// Diffuse texture image, relative to the scene file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<PathBuf>,
+    /// Exponent of the glossy reflection lobe (default: `shininess`; `inf`: perfect mirror).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glossiness: Option<f32>,
 }
 
 /// How textures are looked up.
@@ -119,11 +126,7 @@ mod tests {
     use super::*;
 
     fn checker() -> Texture {
-        Texture {
-            width: 2,
-            height: 2,
-            texels: vec![Color::ONE, Color::ZERO, Color::ZERO, Color::ONE],
-        }
+        Texture { width: 2, height: 2, texels: vec![Color::ONE, Color::ZERO, Color::ZERO, Color::ONE] }
     }
 
     #[test]

@@ -32,19 +32,11 @@ pub enum Format {
 impl Format {
     /// The format for `path`'s extension.
     pub fn from_path(path: &Path) -> Result<Format> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
+        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
             Some("png") => Ok(Format::Png),
             Some("exr") => Ok(Format::Exr),
             Some("pfm") => Ok(Format::Pfm),
-            _ => Err(Error::Invalid(format!(
-                "{}: unknown image format; use .png, .exr or .pfm",
-                path.display()
-            ))),
+            _ => Err(Error::Invalid(format!("{}: unknown image format; use .png, .exr or .pfm", path.display()))),
         }
     }
 
@@ -70,9 +62,7 @@ pub fn write_image(img: &FloatImage, path: &Path, encoding: Encoding) -> Result<
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        tmp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))
-            .map_err(|e| Error::io(path, e))?;
+        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(|e| Error::io(path, e))?;
     }
     {
         let mut w = BufWriter::new(tmp.as_file());
@@ -106,11 +96,7 @@ pub fn to_rgb8(img: &FloatImage, encoding: Encoding) -> Vec<u8> {
 
 fn write_png(img: &FloatImage, w: &mut impl Write, encoding: Encoding) -> std::io::Result<()> {
     use image::ImageEncoder;
-    let color = if img.channels == 1 {
-        image::ExtendedColorType::L8
-    } else {
-        image::ExtendedColorType::Rgb8
-    };
+    let color = if img.channels == 1 { image::ExtendedColorType::L8 } else { image::ExtendedColorType::Rgb8 };
     image::codecs::png::PngEncoder::new(w)
         .write_image(&to_rgb8(img, encoding), img.width, img.height, color)
         .map_err(std::io::Error::other)
@@ -134,9 +120,7 @@ fn write_exr(img: &FloatImage, w: &mut (impl Write + std::io::Seek)) -> std::io:
     let size = (img.width as usize, img.height as usize);
     let result = if img.channels == 1 {
         let channel = AnyChannel::new("Y", FlatSamples::F32(img.data.clone()));
-        Image::from_channels(size, AnyChannels::sort(SmallVec::from_vec(vec![channel])))
-            .write()
-            .to_buffered(w)
+        Image::from_channels(size, AnyChannels::sort(SmallVec::from_vec(vec![channel]))).write().to_buffered(w)
     } else {
         let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
             let px = img.pixel(p.0 as u32, p.1 as u32);
@@ -183,22 +167,10 @@ pub fn read_pfm(path: &Path) -> Result<FloatImage> {
         .chunks_exact(4)
         .map(|c| {
             let b = [c[0], c[1], c[2], c[3]];
-            if scale < 0.0 {
-                f32::from_le_bytes(b)
-            } else {
-                f32::from_be_bytes(b)
-            }
+            if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
         })
         .collect();
     let row = (width * channels) as usize;
-    let data = (0..height as usize)
-        .rev()
-        .flat_map(|y| vals[y * row..(y + 1) * row].to_vec())
-        .collect();
-    Ok(FloatImage {
-        width,
-        height,
-        channels,
-        data,
-    })
+    let data = (0..height as usize).rev().flat_map(|y| vals[y * row..(y + 1) * row].to_vec()).collect();
+    Ok(FloatImage { width, height, channels, data })
 }

@@ -13,10 +13,7 @@ pub struct Interval {
 
 impl Interval {
     /// `[0, +inf)`: everything in front of the origin.
-    pub const FORWARD: Interval = Interval {
-        min: 0.0,
-        max: f32::INFINITY,
-    };
+    pub const FORWARD: Interval = Interval { min: 0.0, max: f32::INFINITY };
 }
 
 /// A ray `origin + t * dir` with `t` in `t`, at shutter time `time` in `[0, 1)`.
@@ -41,12 +38,7 @@ impl Ray {
     /// A ray over `[0, +inf)` at time 0.
     #[inline]
     pub fn new(origin: Vec3A, dir: Vec3A) -> Ray {
-        Ray {
-            origin,
-            dir,
-            t: Interval::FORWARD,
-            time: 0.0,
-        }
+        Ray { origin, dir, t: Interval::FORWARD, time: 0.0 }
     }
 
     /// The point at parameter `t`.
@@ -61,12 +53,7 @@ impl Ray {
     /// enough not to detach shadows from their casters (no peter-panning).
     #[inline]
     pub fn spawn(p: Vec3A, ng: Vec3A, dir: Vec3A, time: f32) -> Ray {
-        Ray {
-            origin: offset_origin(p, ng, dir),
-            dir,
-            t: Interval::FORWARD,
-            time,
-        }
+        Ray { origin: offset_origin(p, ng, dir), dir, t: Interval::FORWARD, time }
     }
 
     /// A shadow ray from surface point `p` towards `target`, ending just short of it, so that
@@ -78,15 +65,7 @@ impl Ray {
         let dir = to.normalize_or_zero();
         let origin = offset_origin(p, ng, dir);
         let dist = (target - origin).length();
-        Ray {
-            origin,
-            dir,
-            t: Interval {
-                min: 0.0,
-                max: dist * (1.0 - SPAWN_EPSILON),
-            },
-            time,
-        }
+        Ray { origin, dir, t: Interval { min: 0.0, max: dist * (1.0 - SPAWN_EPSILON) }, time }
     }
 }
 

@@ -19,6 +19,8 @@ pub enum RayKind {
     Reflection,
     /// Continuation through a transparent surface.
     Transmission,
+    /// One of the rays sampling a glossy reflection lobe.
+    Glossy,
 }
 
 /// What a recorded ray hit.
@@ -48,13 +50,31 @@ pub trait RayRecorder {
     /// The current ray hit (or missed, `None`).
     #[inline(always)]
     fn hit(&mut self, _hit: Option<RecordedHit>) {}
-    /// A shadow ray from `from` towards light `light`'s point `to`; `blocked_at` is where an
-    /// opaque surface stopped it; `transmitted` the light fraction that got through.
+    /// A shadow ray from `from` towards the point `to` sampled on light `light`, whose colour
+    /// there is `light_color`; `blocked_at` is where an opaque surface stopped it;
+    /// `transmitted` the light fraction that got through.
     #[inline(always)]
-    fn shadow(&mut self, _light: usize, _from: Vec3A, _to: Vec3A, _blocked_at: Option<Vec3A>, _transmitted: Color) {}
+    fn shadow(&mut self, _shadow: &ShadowEvent) {}
     /// The current ray is done and returns `color`.
     #[inline(always)]
     fn end_ray(&mut self, _color: Color) {}
+}
+
+/// A shadow ray as the integrator reports it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowEvent {
+    /// Index of the light.
+    pub light: usize,
+    /// Origin (the offset shading point).
+    pub from: Vec3A,
+    /// The point sampled on the light.
+    pub to: Vec3A,
+    /// The light's colour at that point.
+    pub light_color: Color,
+    /// Where an opaque surface blocked the ray, if one did.
+    pub blocked_at: Option<Vec3A>,
+    /// Fraction of the light that arrived (0 blocked, 1 free, between through transparency).
+    pub transmitted: Color,
 }
 
 /// Records nothing; what normal renders use.
@@ -72,6 +92,8 @@ pub struct RecordedShadow {
     pub from: [f32; 3],
     /// The light point aimed at.
     pub to: [f32; 3],
+    /// The light's colour at that point.
+    pub light_color: [f32; 3],
     /// Where an opaque surface blocked it, if one did.
     pub blocked_at: Option<[f32; 3]>,
     /// Fraction of the light's colour that arrived.
@@ -131,14 +153,15 @@ impl RayRecorder for RayTree {
         }
     }
 
-    fn shadow(&mut self, light: usize, from: Vec3A, to: Vec3A, blocked_at: Option<Vec3A>, transmitted: Color) {
+    fn shadow(&mut self, s: &ShadowEvent) {
         if let Some(&i) = self.open.last() {
             self.rays[i].shadows.push(RecordedShadow {
-                light,
-                from: from.to_array(),
-                to: to.to_array(),
-                blocked_at: blocked_at.map(|p| p.to_array()),
-                transmitted: transmitted.to_array(),
+                light: s.light,
+                from: s.from.to_array(),
+                to: s.to.to_array(),
+                light_color: s.light_color.to_array(),
+                blocked_at: s.blocked_at.map(|p| p.to_array()),
+                transmitted: s.transmitted.to_array(),
             });
         }
     }

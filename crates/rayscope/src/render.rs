@@ -1,19 +1,21 @@
-//! Rendering an image: settings, the parallel tile loop, AOVs, and single-pixel tracing for
+//! Rendering an image: settings, the parallel tile loop, AOVs, and single-sample tracing for
 //! the debugger (the same code path).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::TraversalStats;
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraMotion};
 use crate::film::{Film, FloatImage};
-use crate::integrator::{Integrator, RayCounts};
+use crate::filter::PixelFilter;
+use crate::integrator::{Integrator, PathContext, RayCounts};
 use crate::material::TextureFilter;
-use crate::math::Color;
+use crate::math::{Color, Vec2};
 use crate::record::{NoRecorder, RayKind, RayRecorder};
+use crate::sampler::PixelSampler;
 use crate::scene::Scene;
 
 /// Every switch of the renderer. Scene files may set any of them in a `[render]` table.
@@ -42,6 +44,16 @@ pub struct RenderSettings {
     pub texture_filter: TextureFilter,
     /// Colour of rays that hit nothing.
     pub background: Color,
+    /// Samples (camera rays) per pixel: anti-aliasing, and motion blur over the shutter.
+    pub spp: u32,
+    /// Shadow rays per area light ("rays per light"); 0 shades each light from its centre.
+    pub light_samples: u32,
+    /// Rays sampling each glossy reflection; 0 reflects as a perfect mirror.
+    pub gloss_samples: u32,
+    /// Pixel reconstruction filter.
+    pub filter: PixelFilter,
+    /// Seed of every random number; the same seed gives the same image.
+    pub seed: u64,
 }
 
 impl Default for RenderSettings {
@@ -58,6 +70,11 @@ impl Default for RenderSettings {
             textures: true,
             texture_filter: TextureFilter::Bilinear,
             background: Color::ZERO,
+            spp: 1,
+            light_samples: 0,
+            gloss_samples: 0,
+            filter: PixelFilter::Box,
+            seed: 0,
         }
     }
 }
@@ -65,23 +82,32 @@ impl Default for RenderSettings {
 /// Largest accepted image side, in pixels (a 16k x 16k float film is already 3 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
+/// Largest accepted count of samples, shadow rays per light or glossy rays.
+pub const MAX_SAMPLES: u32 = 1 << 16;
+
 impl RenderSettings {
     /// Check that the values make sense (a clear message, not a panic or a huge allocation).
     pub fn validate(&self) -> Result<(), crate::Error> {
+        let bad = |m: String| Err(crate::Error::Invalid(m));
         if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
-            return Err(crate::Error::Invalid(format!(
+            return bad(format!(
                 "image size {}x{} is out of range: each side must be 1 to {MAX_IMAGE_SIDE}",
                 self.width, self.height
-            )));
+            ));
         }
         if !self.background.is_finite() {
-            return Err(crate::Error::Invalid("background colour must be finite".into()));
+            return bad("background colour must be finite".into());
         }
         if self.max_depth > 64 {
-            return Err(crate::Error::Invalid(format!(
-                "max depth {} is out of range (0 to 64)",
-                self.max_depth
-            )));
+            return bad(format!("max depth {} is out of range (0 to 64)", self.max_depth));
+        }
+        if self.spp == 0 || self.spp > MAX_SAMPLES {
+            return bad(format!("samples per pixel {} is out of range (1 to {MAX_SAMPLES})", self.spp));
+        }
+        for (what, n) in [("light samples", self.light_samples), ("gloss samples", self.gloss_samples)] {
+            if n > MAX_SAMPLES {
+                return bad(format!("{what} {n} is out of range (0 to {MAX_SAMPLES})"));
+            }
         }
         Ok(())
     }
@@ -90,13 +116,13 @@ impl RenderSettings {
 /// Progress of a render, as passed to its callback.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RenderProgress {
-    /// Pixels finished.
+    /// Pixels finished in this pass.
     pub done: usize,
     /// Pixels in all.
     pub total: usize,
 }
 
-/// A finished render.
+/// A finished (or interrupted) render.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
     /// The image.
@@ -105,6 +131,8 @@ pub struct RenderOutput {
     pub rays: RayCounts,
     /// Wall-clock time of the tile loop.
     pub elapsed: Duration,
+    /// False when a cancel request stopped the render before every pixel was done.
+    pub complete: bool,
 }
 
 impl RenderOutput {
@@ -118,6 +146,7 @@ impl RenderOutput {
 /// threads, large enough that the rays of a tile stay coherent in cache.
 const TILE: u32 = 16;
 
+#[derive(Clone, Copy)]
 struct Tile {
     x0: u32,
     y0: u32,
@@ -125,97 +154,165 @@ struct Tile {
     y1: u32,
 }
 
+impl Tile {
+    fn pixels(self) -> impl Iterator<Item = (u32, u32)> {
+        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y)))
+    }
+}
+
 fn tiles(width: u32, height: u32) -> Vec<Tile> {
     let mut v = Vec::new();
     for y0 in (0..height).step_by(TILE as usize) {
         for x0 in (0..width).step_by(TILE as usize) {
-            v.push(Tile {
-                x0,
-                y0,
-                x1: (x0 + TILE).min(width),
-                y1: (y0 + TILE).min(height),
-            });
+            v.push(Tile { x0, y0, x1: (x0 + TILE).min(width), y1: (y0 + TILE).min(height) });
         }
     }
     v
 }
 
-/// Run `f` for every pixel in parallel tiles, gathering its values into a row-major vector.
-/// Each pixel's value depends only on the pixel, so the result is the same for any number of
-/// threads.
-fn per_pixel<T: Send + Copy + Default>(
+/// Run `f` for every pixel in parallel tiles, skipping tiles not yet started once `cancel` is
+/// set. Returns, per tile, its pixels' results (`None` for skipped tiles). Each result depends
+/// only on its pixel, so the outcome is the same for any number of threads.
+fn per_tile<T: Send>(
     width: u32,
     height: u32,
+    cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
-    f: impl Fn(u32, u32, &mut RayCounts) -> T + Sync,
-) -> (Vec<T>, RayCounts) {
+    f: impl Fn(u32, u32) -> T + Sync,
+) -> Vec<(Tile, Option<Vec<T>>)> {
     let tiles = tiles(width, height);
     let done = AtomicUsize::new(0);
     let total = width as usize * height as usize;
-    let results: Vec<(Vec<T>, RayCounts)> = tiles
-        .par_iter()
+    tiles
+        .into_par_iter()
         .map(|t| {
-            let mut counts = RayCounts::default();
-            let mut v = Vec::with_capacity(((t.x1 - t.x0) * (t.y1 - t.y0)) as usize);
-            for y in t.y0..t.y1 {
-                for x in t.x0..t.x1 {
-                    v.push(f(x, y, &mut counts));
-                }
+            if cancel.load(Ordering::Relaxed) {
+                return (t, None);
             }
+            let v: Vec<T> = t.pixels().map(|(x, y)| f(x, y)).collect();
             let d = done.fetch_add(v.len(), Ordering::Relaxed) + v.len();
             progress(RenderProgress { done: d, total });
-            (v, counts)
+            (t, Some(v))
         })
-        .collect();
-    let mut out = vec![T::default(); total];
-    let mut counts = RayCounts::default();
-    for (t, (v, c)) in tiles.iter().zip(results) {
-        counts.add(c);
-        let w = (t.x1 - t.x0) as usize;
-        for (i, row) in v.chunks_exact(w).enumerate() {
-            let start = (t.y0 as usize + i) * width as usize + t.x0 as usize;
-            out[start..start + w].copy_from_slice(row);
+        .collect()
+}
+
+/// Which samples a pass adds to each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SamplePass {
+    /// Samples to add to every pixel; each pixel continues from the samples it already has.
+    pub samples: u32,
+    /// No pixel goes past this many samples (so pixels left behind by an interrupted pass
+    /// catch up without the others overshooting); `u32::MAX` for no limit.
+    pub limit: u32,
+    /// The total the pixel is planned to receive (selects stratification; 0: open-ended).
+    pub planned: u32,
+    /// Seed of this pass's random numbers.
+    pub seed: u64,
+}
+
+/// Add `pass.samples` samples to every pixel of `film` (sized as `settings`), seen through
+/// `camera`. Pixel sample `k` always uses the same random numbers, so adding 3 then 2 samples
+/// gives the same film, bit for bit, as adding 5. Tiles not started when `cancel` is set are
+/// skipped; the return value says whether every pixel got its samples.
+pub fn render_pass(
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: &CameraMotion,
+    film: &mut Film,
+    pass: SamplePass,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> (RayCounts, bool) {
+    let integrator = Integrator::new(scene, settings);
+    let (w, h) = (settings.width, settings.height);
+    let (sums, counts) = film.raw();
+    let results = per_tile(w, h, cancel, progress, |x, y| {
+        let i = (y * w + x) as usize;
+        let (mut sum, first) = (sums[i], counts[i]);
+        let last = first.saturating_add(pass.samples).min(pass.limit.max(first));
+        let mut rays = RayCounts::default();
+        for k in first..last {
+            let (c, r) = sample_pixel(&integrator, camera, x, y, k, pass, &mut NoRecorder);
+            sum += c;
+            rays.add(r);
+        }
+        (sum, last - first, rays)
+    });
+    let (sums, counts) = film.raw_mut();
+    let mut rays = RayCounts::default();
+    let mut complete = true;
+    for (t, r) in results {
+        let Some(values) = r else {
+            complete = false;
+            continue;
+        };
+        for ((x, y), (sum, added, r)) in t.pixels().zip(values) {
+            let i = (y * w + x) as usize;
+            sums[i] = sum;
+            counts[i] += added;
+            rays.add(r);
         }
     }
-    (out, counts)
+    (rays, complete)
 }
 
-/// Render `scene` with `settings` on the current rayon pool, calling `progress` as tiles finish.
-pub fn render(scene: &Scene, settings: &RenderSettings, progress: &(dyn Fn(RenderProgress) + Sync)) -> RenderOutput {
-    let start = Instant::now();
-    let camera = scene.camera();
-    let integrator = Integrator::new(scene, settings);
-    let (pixels, rays) = per_pixel(settings.width, settings.height, progress, |x, y, counts| {
-        trace_pixel_with(&integrator, &camera, x, y, &mut NoRecorder, counts)
-    });
-    let mut film = Film::new(settings.width, settings.height);
-    for (i, c) in pixels.into_iter().enumerate() {
-        film.set(i as u32 % settings.width, i as u32 / settings.width, c);
-    }
-    RenderOutput {
-        film,
-        rays,
-        elapsed: start.elapsed(),
-    }
-}
-
-fn trace_pixel_with<R: RayRecorder>(
+/// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger, uses.
+fn sample_pixel<R: RayRecorder>(
     integrator: &Integrator,
-    camera: &Camera,
+    camera: &CameraMotion,
     x: u32,
     y: u32,
+    k: u32,
+    pass: SamplePass,
     rec: &mut R,
-    counts: &mut RayCounts,
-) -> Color {
+) -> (Color, RayCounts) {
     let s = integrator.settings;
-    let ray = camera.pixel_ray(x, y, s.width, s.height);
-    integrator.li(&ray, RayKind::Camera, 0, rec, counts)
+    let sampler = PixelSampler::new(pass.seed, y * s.width + x, k, pass.planned);
+    let offset = s.filter.warp(sampler.pixel_offset);
+    let ndc = Camera::ndc(x, y, s.width, s.height, Vec2::splat(0.5) + offset);
+    let time = sampler.time;
+    let mut ray = camera.at(time).ray(ndc, s.width as f32 / s.height as f32);
+    ray.time = time;
+    let mut ctx = PathContext::new(sampler, rec);
+    let c = integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
+    (c, ctx.counts)
 }
 
-/// Trace pixel `(x, y)` alone, exactly as [`render`] does, reporting every ray to `rec`.
-pub fn trace_pixel<R: RayRecorder>(scene: &Scene, settings: &RenderSettings, x: u32, y: u32, rec: &mut R) -> Color {
+/// Render `scene` with `settings` (all `spp` samples per pixel) on the current rayon pool,
+/// calling `progress` as tiles finish.
+pub fn render(scene: &Scene, settings: &RenderSettings, progress: &(dyn Fn(RenderProgress) + Sync)) -> RenderOutput {
+    render_cancellable(scene, settings, &AtomicBool::new(false), progress)
+}
+
+/// [`render`] that stops early when `cancel` is set, keeping the tiles it finished (the
+/// others stay black, with no samples).
+pub fn render_cancellable(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> RenderOutput {
+    let start = Instant::now();
+    let mut film = Film::new(settings.width, settings.height);
+    let pass = SamplePass { samples: settings.spp, limit: settings.spp, planned: settings.spp, seed: settings.seed };
+    let (rays, complete) = render_pass(scene, settings, &scene.camera_motion(), &mut film, pass, cancel, progress);
+    RenderOutput { film, rays, elapsed: start.elapsed(), complete }
+}
+
+/// Trace sample `k` of pixel `(x, y)` alone, exactly as [`render`] does (with `planned =
+/// settings.spp`), reporting every ray to `rec`. Returns the sample's colour.
+pub fn trace_pixel<R: RayRecorder>(
+    scene: &Scene,
+    settings: &RenderSettings,
+    x: u32,
+    y: u32,
+    k: u32,
+    rec: &mut R,
+) -> Color {
     let integrator = Integrator::new(scene, settings);
-    trace_pixel_with(&integrator, &scene.camera(), x, y, rec, &mut RayCounts::default())
+    let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
+    sample_pixel(&integrator, &scene.camera_motion(), x, y, k, pass, rec).0
 }
 
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
@@ -254,7 +351,7 @@ pub fn render_aov(
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> FloatImage {
     let camera = scene.camera();
-    let (pixels, _) = per_pixel(settings.width, settings.height, progress, |x, y, _| {
+    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x, y| {
         let ray = camera.pixel_ray(x, y, settings.width, settings.height);
         let mut stats = TraversalStats::default();
         let hit = scene.intersect_counted(&ray, &mut stats);
@@ -278,12 +375,14 @@ pub fn render_aov(
         };
         v
     });
-    let channels = aov.channels();
-    let data = pixels.iter().flat_map(|p| p[..channels as usize].to_vec()).collect();
-    FloatImage {
-        width: settings.width,
-        height: settings.height,
-        channels,
-        data,
+    let channels = aov.channels() as usize;
+    let mut data = vec![0.0; settings.width as usize * settings.height as usize * channels];
+    for (t, values) in tiles {
+        for ((x, y), v) in t.pixels().zip(values.into_iter().flatten()) {
+            let i = (y as usize * settings.width as usize + x as usize) * channels;
+            data[i..i + channels].copy_from_slice(&v[..channels]);
+        }
     }
+    let channels = channels as u32;
+    FloatImage { width: settings.width, height: settings.height, channels, data }
 }

@@ -40,9 +40,7 @@ fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
     let prims = Ordered { shapes, bvh: &bvh };
     let mut hits = 0;
     for ray in rays {
-        let got = bvh
-            .intersect(&ray, &prims)
-            .map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
+        let got = bvh.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
         let want = brute_closest(shapes, &ray);
         match (got, want) {
             (None, None) => {}
@@ -51,10 +49,7 @@ fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
                 // Equal distance; where two primitives tie (a shared edge), either is right,
                 // but the one reported must really be hit at that distance.
                 assert_eq!(gh.t, wh.t, "ray {ray:?}");
-                assert_eq!(
-                    shapes[gp as usize].intersect(&ray, ray.t.min, ray.t.max).map(|h| h.t),
-                    Some(gh.t)
-                );
+                assert_eq!(shapes[gp as usize].intersect(&ray, ray.t.min, ray.t.max).map(|h| h.t), Some(gh.t));
             }
             (g, w) => panic!("ray {ray:?}: BVH {g:?}, brute force {w:?}"),
         }
@@ -68,10 +63,7 @@ fn random_soup(rng: &mut Rng, n: usize, size: f32) -> Vec<Shape> {
         .map(|_| {
             let c = rng.vec3(-1.0, 1.0);
             if rng.f32() < 0.05 {
-                Shape::Sphere(Sphere {
-                    center: c,
-                    radius: rng.range(0.01, 0.2),
-                })
+                Shape::Sphere(Sphere { center: c, radius: rng.range(0.01, 0.2) })
             } else {
                 Shape::Triangle(Triangle::new(c, c + rng.vec3(-size, size), c + rng.vec3(-size, size)))
             }
@@ -124,10 +116,7 @@ fn degenerate_inputs() {
     assert!(bvh.nodes.is_empty());
     check(&[], rays(&mut rng));
     // One triangle.
-    check(
-        &[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))],
-        rays(&mut rng),
-    );
+    check(&[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))], rays(&mut rng));
     // Zero-area triangles (a point and a line), mixed with a real one.
     let zero = vec![
         Shape::Triangle(Triangle::new(p, p, p)),
@@ -146,25 +135,16 @@ fn degenerate_inputs() {
     bvh.validate(&bounds).unwrap();
     assert_eq!(bvh.prim_indices, vec![2]);
     // All primitives in one point (centroids coincide: no SAH plane exists).
-    let same: Vec<Shape> = (0..100)
-        .map(|_| Shape::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y)))
-        .collect();
+    let same: Vec<Shape> = (0..100).map(|_| Shape::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y))).collect();
     check(&same, rays(&mut rng));
     let bounds: Vec<Aabb> = same.iter().map(Shape::bounds).collect();
     let bvh = Bvh::build(&bounds, &BuildParams::default());
-    assert!(
-        bvh.stats().levels > 1,
-        "a large inseparable set is still split by count"
-    );
+    assert!(bvh.stats().levels > 1, "a large inseparable set is still split by count");
     // NaN rays hit nothing and do not panic.
     let tri = [Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))];
     check(
         &tri,
-        [
-            Ray::new(Vec3A::splat(f32::NAN), Vec3A::Z),
-            Ray::new(Vec3A::ZERO, Vec3A::splat(f32::NAN)),
-        ]
-        .into_iter(),
+        [Ray::new(Vec3A::splat(f32::NAN), Vec3A::Z), Ray::new(Vec3A::ZERO, Vec3A::splat(f32::NAN))].into_iter(),
     );
     // Huge coordinates.
     let huge: Vec<Shape> = random_soup(&mut rng, 200, 0.3)
@@ -224,9 +204,8 @@ fn course_scenes_match_brute_force() {
         let n = if shapes.len() > 50_000 { 300 } else { 1500 };
         // Camera rays of the default view, and random rays through the scene.
         let cam = scene.camera();
-        let mut rays: Vec<Ray> = (0..n / 2)
-            .map(|i| cam.pixel_ray((i * 37) as u32 % 100, (i * 53) as u32 % 100, 100, 100))
-            .collect();
+        let mut rays: Vec<Ray> =
+            (0..n / 2).map(|i| cam.pixel_ray((i * 37) as u32 % 100, (i * 53) as u32 % 100, 100, 100)).collect();
         rays.extend(random_rays(&mut rng, n / 2, 1.0));
         for ray in &rays {
             let got = scene.intersect(ray);
@@ -252,11 +231,7 @@ fn level_boxes_cover_every_primitive() {
             .iter()
             .map(|b| {
                 let n = &bvh.nodes[b.node as usize];
-                if n.is_leaf() {
-                    n.count as usize
-                } else {
-                    count_below(&bvh, b.node as usize)
-                }
+                if n.is_leaf() { n.count as usize } else { count_below(&bvh, b.node as usize) }
             })
             .sum();
         assert_eq!(covered, shapes.len(), "level {level}");
@@ -266,11 +241,7 @@ fn level_boxes_cover_every_primitive() {
 
 fn count_below(bvh: &Bvh, i: usize) -> usize {
     let n = &bvh.nodes[i];
-    if n.is_leaf() {
-        n.count as usize
-    } else {
-        count_below(bvh, i + 1) + count_below(bvh, n.start as usize)
-    }
+    if n.is_leaf() { n.count as usize } else { count_below(bvh, i + 1) + count_below(bvh, n.start as usize) }
 }
 
 #[test]

@@ -4,12 +4,7 @@ use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, read_pfm, to_rgb8, write_image};
 
 fn image() -> FloatImage {
-    FloatImage {
-        width: 3,
-        height: 2,
-        channels: 3,
-        data: (0..18).map(|i| i as f32 / 10.0 - 0.2).collect(),
-    }
+    FloatImage { width: 3, height: 2, channels: 3, data: (0..18).map(|i| i as f32 / 10.0 - 0.2).collect() }
 }
 
 #[test]
@@ -18,12 +13,7 @@ fn pfm_round_trips() {
     let p = dir.path().join("a.pfm");
     write_image(&image(), &p, Encoding::Linear).unwrap();
     assert_eq!(read_pfm(&p).unwrap(), image());
-    let grey = FloatImage {
-        width: 2,
-        height: 2,
-        channels: 1,
-        data: vec![f32::NAN, 1.0, -1.0, 2.5],
-    };
+    let grey = FloatImage { width: 2, height: 2, channels: 1, data: vec![f32::NAN, 1.0, -1.0, 2.5] };
     write_image(&grey, &p, Encoding::Linear).unwrap();
     let back = read_pfm(&p).unwrap();
     assert!(back.data[0].is_nan() && back.data[1..] == grey.data[1..]);
@@ -45,12 +35,7 @@ fn png_and_exr_are_written() {
 
 #[test]
 fn eight_bit_encodings() {
-    let img = FloatImage {
-        width: 3,
-        height: 1,
-        channels: 1,
-        data: vec![0.5, 2.0, f32::NAN],
-    };
+    let img = FloatImage { width: 3, height: 1, channels: 1, data: vec![0.5, 2.0, f32::NAN] };
     assert_eq!(to_rgb8(&img, Encoding::Linear), vec![128, 255, 0]);
     assert_eq!(to_rgb8(&img, Encoding::Srgb)[0], 188);
 }

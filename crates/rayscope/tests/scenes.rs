@@ -12,22 +12,13 @@ use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
 
 fn render_with_threads(scene: &Scene, s: &RenderSettings, threads: usize) -> Vec<[f32; 3]> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    pool.install(|| render(scene, s, &|_| {}))
-        .film
-        .pixels()
-        .iter()
-        .map(|c| c.to_array())
-        .collect()
+    pool.install(|| render(scene, s, &|_| {})).film.pixels().iter().map(|c| c.to_array()).collect()
 }
 
 #[test]
 fn every_builtin_renders_the_same_on_1_and_2_threads() {
     let assets = assets("every_builtin_renders_the_same_on_1_and_2_threads");
-    let s = RenderSettings {
-        width: 48,
-        height: 40,
-        ..RenderSettings::default()
-    };
+    let s = RenderSettings { width: 48, height: 40, ..RenderSettings::default() };
     for b in builtin::BUILTINS {
         if b.needs_assets && assets.is_none() {
             continue;
@@ -45,15 +36,9 @@ fn every_builtin_renders_the_same_on_1_and_2_threads() {
 #[test]
 fn scenes_needing_files_explain_how_to_find_them() {
     let desc = builtin::scene_desc("dragon").unwrap();
-    let ctx = LoadContext {
-        assets: Some("/nonexistent/folder".into()),
-        ..LoadContext::default()
-    };
+    let ctx = LoadContext { assets: Some("/nonexistent/folder".into()), ..LoadContext::default() };
     let err = Scene::from_desc(&desc, &ctx).unwrap_err().to_string();
-    assert!(
-        err.contains("/nonexistent/folder/dragon.obj") && err.contains("RAYSCOPE_ASSETS"),
-        "{err}"
-    );
+    assert!(err.contains("/nonexistent/folder/dragon.obj") && err.contains("RAYSCOPE_ASSETS"), "{err}");
     let err = builtin::scene_desc("nope").unwrap_err().to_string();
     assert!(err.contains("cornell-box"), "{err}");
 }
@@ -73,12 +58,8 @@ fn triangles(scene: &Scene) -> Vec<(Vec<[i64; 3]>, [i64; 5])> {
     let q = |v: f32| (v * 1e4).round() as i64;
     let mut out: Vec<_> = (0..scene.triangle_count() as u32)
         .map(|p| {
-            let mut vs: Vec<[i64; 3]> = scene
-                .triangle_vertices(p)
-                .unwrap()
-                .iter()
-                .map(|v: &Vec3A| v.to_array().map(q))
-                .collect();
+            let mut vs: Vec<[i64; 3]> =
+                scene.triangle_vertices(p).unwrap().iter().map(|v: &Vec3A| v.to_array().map(q)).collect();
             vs.sort();
             let m = &scene.materials[scene.material_of(p) as usize];
             (vs, [q(m.kd.x), q(m.kd.y), q(m.ks.x), q(m.shininess), q(m.transparency)])
@@ -93,35 +74,13 @@ fn generated_scenes_equal_the_course_files() {
     let Some(assets) = assets("generated_scenes_equal_the_course_files") else {
         return;
     };
-    let ctx = LoadContext {
-        assets: Some(assets),
-        ..LoadContext::default()
-    };
-    for (generated, file, normalize) in [
-        (builtin::cornell_box(), "CornellBox-Mirror-Rotated.obj", true),
-        (builtin::cube(), "cube.obj", false),
-    ] {
-        let from_file = MeshDesc {
-            asset: Some(file.into()),
-            normalize,
-            ..MeshDesc::default()
-        };
-        let a = Scene::from_desc(
-            &SceneDesc {
-                meshes: vec![generated],
-                ..SceneDesc::default()
-            },
-            &ctx,
-        )
-        .unwrap();
-        let b = Scene::from_desc(
-            &SceneDesc {
-                meshes: vec![from_file],
-                ..SceneDesc::default()
-            },
-            &ctx,
-        )
-        .unwrap();
+    let ctx = LoadContext { assets: Some(assets), ..LoadContext::default() };
+    for (generated, file, normalize) in
+        [(builtin::cornell_box(), "CornellBox-Mirror-Rotated.obj", true), (builtin::cube(), "cube.obj", false)]
+    {
+        let from_file = MeshDesc { asset: Some(file.into()), normalize, ..MeshDesc::default() };
+        let a = Scene::from_desc(&SceneDesc { meshes: vec![generated], ..SceneDesc::default() }, &ctx).unwrap();
+        let b = Scene::from_desc(&SceneDesc { meshes: vec![from_file], ..SceneDesc::default() }, &ctx).unwrap();
         assert_eq!(triangles(&a), triangles(&b), "{file}");
     }
 }
@@ -140,31 +99,15 @@ fn course_meshes_load_with_expected_sizes() {
     let Some(assets) = assets("course_meshes_load_with_expected_sizes") else {
         return;
     };
-    for (name, tris) in [
-        ("monkey", 968),
-        ("teapot", 15704),
-        ("dragon", 100_000),
-        ("cube-textured", 12),
-    ] {
+    for (name, tris) in [("monkey", 968), ("teapot", 15704), ("dragon", 100_000), ("cube-textured", 12)] {
         let scene = builtin_scene(name, Some(&assets));
         assert_eq!(scene.triangle_count(), tris, "{name}");
         if name != "cube-textured" {
-            let max = scene
-                .meshes
-                .iter()
-                .flat_map(|m| &m.positions)
-                .map(|p| p.length())
-                .fold(0.0, f32::max);
-            assert!(
-                (max - 1.0).abs() < 1e-4,
-                "{name} is normalised to the unit sphere ({max})"
-            );
+            let max = scene.meshes.iter().flat_map(|m| &m.positions).map(|p| p.length()).fold(0.0, f32::max);
+            assert!((max - 1.0).abs() < 1e-4, "{name} is normalised to the unit sphere ({max})");
         }
     }
     let teapot = builtin_scene("teapot", Some(&assets));
     assert_eq!(teapot.textures.len(), 1, "map_Kd default.png");
-    assert!(
-        teapot.meshes.iter().all(|m| m.normals.len() == m.positions.len()),
-        "smooth normals generated"
-    );
+    assert!(teapot.meshes.iter().all(|m| m.normals.len() == m.positions.len()), "smooth normals generated");
 }

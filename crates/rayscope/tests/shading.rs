@@ -13,32 +13,18 @@ use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc};
 
 /// A 5x5 image whose centre pixel's ray goes exactly through the origin along +z.
 fn settings() -> RenderSettings {
-    RenderSettings {
-        width: 5,
-        height: 5,
-        ..RenderSettings::default()
-    }
+    RenderSettings { width: 5, height: 5, ..RenderSettings::default() }
 }
 
 fn camera() -> CameraDesc {
-    CameraDesc::LookAt {
-        eye: Vec3::new(0.0, 0.0, -3.0),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        fov: 30.0,
-    }
+    CameraDesc::LookAt { eye: Vec3::new(0.0, 0.0, -3.0), target: Vec3::ZERO, up: Vec3::Y, fov: 30.0 }
 }
 
 /// A big square in the plane z = `z`, facing the camera.
 fn plane(z: f32, material: MaterialDesc) -> MeshDesc {
     let s = 50.0;
     let mut m = inline_scene(
-        vec![
-            Vec3::new(-s, -s, z),
-            Vec3::new(s, -s, z),
-            Vec3::new(s, s, z),
-            Vec3::new(-s, s, z),
-        ],
+        vec![Vec3::new(-s, -s, z), Vec3::new(s, -s, z), Vec3::new(s, s, z), Vec3::new(-s, s, z)],
         vec![[0, 1, 2], [0, 2, 3]],
     )
     .meshes
@@ -65,17 +51,9 @@ fn lit_plane() -> SceneDesc {
         camera: camera(),
         meshes: vec![plane(
             0.0,
-            MaterialDesc {
-                kd: Some(KD),
-                ks: Some(KS),
-                shininess: Some(10.0),
-                ..Default::default()
-            },
+            MaterialDesc { kd: Some(KD), ks: Some(KS), shininess: Some(10.0), ..Default::default() },
         )],
-        lights: vec![Light::Point {
-            position: Vec3::new(1.0, 0.0, -1.0),
-            color: LIGHT,
-        }],
+        lights: vec![Light::Point { position: Vec3::new(1.0, 0.0, -1.0), color: LIGHT }],
         ..SceneDesc::default()
     }
 }
@@ -93,39 +71,25 @@ fn phong_matches_hand_computation() {
 
 #[test]
 fn shading_off_shows_kd_and_shadows_block() {
-    let s = RenderSettings {
-        shading: false,
-        ..settings()
-    };
+    let s = RenderSettings { shading: false, ..settings() };
     close(centre(&lit_plane(), &s), KD);
     // A small opaque square between the point and the light.
     let mut scene = lit_plane();
     let (a, b) = (0.4, 0.6);
     let blocker = inline_scene(
-        vec![
-            Vec3::new(a, -0.1, -b),
-            Vec3::new(b, -0.1, -a),
-            Vec3::new(b, 0.1, -a),
-            Vec3::new(a, 0.1, -b),
-        ],
+        vec![Vec3::new(a, -0.1, -b), Vec3::new(b, -0.1, -a), Vec3::new(b, 0.1, -a), Vec3::new(a, 0.1, -b)],
         vec![[0, 1, 2], [0, 2, 3]],
     );
     scene.meshes.extend(blocker.meshes);
     close(centre(&scene, &settings()), Color::ZERO);
-    let no_shadows = RenderSettings {
-        shadows: false,
-        ..settings()
-    };
+    let no_shadows = RenderSettings { shadows: false, ..settings() };
     assert!(centre(&scene, &no_shadows).max_element() > 0.1);
 }
 
 #[test]
 fn light_behind_the_surface_contributes_nothing() {
     let mut scene = lit_plane();
-    scene.lights = vec![Light::Point {
-        position: Vec3::new(0.0, 0.0, 1.0),
-        color: LIGHT,
-    }];
+    scene.lights = vec![Light::Point { position: Vec3::new(0.0, 0.0, 1.0), color: LIGHT }];
     close(centre(&scene, &settings()), Color::ZERO);
 }
 
@@ -133,64 +97,38 @@ fn light_behind_the_surface_contributes_nothing() {
 fn mirror_reflection_is_weighted_by_ks() {
     // A mirror plane at z = 0 facing the camera reflects the camera ray straight back to a
     // diffuse plane behind the camera (z = -5) that faces it; the light sits beside the camera.
-    let mirror = MaterialDesc {
-        kd: Some(Vec3::ZERO),
-        ks: Some(Vec3::splat(0.5)),
-        shininess: Some(1e6),
-        ..Default::default()
-    };
-    let wall = MaterialDesc {
-        kd: Some(Vec3::splat(0.6)),
-        ..Default::default()
-    };
+    let mirror =
+        MaterialDesc { kd: Some(Vec3::ZERO), ks: Some(Vec3::splat(0.5)), shininess: Some(1e6), ..Default::default() };
+    let wall = MaterialDesc { kd: Some(Vec3::splat(0.6)), ..Default::default() };
     let scene = SceneDesc {
         camera: camera(),
         meshes: vec![plane(0.0, mirror), plane(-5.0, wall)],
-        lights: vec![Light::Point {
-            position: Vec3::new(0.0, 0.0, -1.0),
-            color: Vec3::ONE,
-        }],
+        lights: vec![Light::Point { position: Vec3::new(0.0, 0.0, -1.0), color: Vec3::ONE }],
         ..SceneDesc::default()
     };
     // The wall point (0,0,-5) sees the light head-on: 0.6. The mirror adds 0.5 of that; its
     // own specular highlight is 0.5 * 1^1e6 = 0.5 (light, mirror point and eye aligned).
     close(centre(&scene, &settings()), Vec3::splat(0.5 + 0.5 * 0.6));
-    let shallow = RenderSettings {
-        max_depth: 0,
-        ..settings()
-    };
+    let shallow = RenderSettings { max_depth: 0, ..settings() };
     close(centre(&scene, &shallow), Vec3::splat(0.5));
 }
 
 #[test]
 fn transparency_blends_and_tints_shadows() {
     // A half-transparent red sheet (d = 0.25) in front of a white wall, the light in front.
-    let sheet = MaterialDesc {
-        kd: Some(Vec3::new(1.0, 0.0, 0.0)),
-        transparency: Some(0.25),
-        ..Default::default()
-    };
-    let wall = MaterialDesc {
-        kd: Some(Vec3::ONE),
-        ..Default::default()
-    };
+    let sheet = MaterialDesc { kd: Some(Vec3::new(1.0, 0.0, 0.0)), transparency: Some(0.25), ..Default::default() };
+    let wall = MaterialDesc { kd: Some(Vec3::ONE), ..Default::default() };
     let scene = SceneDesc {
         camera: camera(),
         meshes: vec![plane(-0.5, sheet), plane(0.0, wall)],
-        lights: vec![Light::Point {
-            position: Vec3::new(0.0, 0.0, -2.0),
-            color: Vec3::ONE,
-        }],
+        lights: vec![Light::Point { position: Vec3::new(0.0, 0.0, -2.0), color: Vec3::ONE }],
         ..SceneDesc::default()
     };
     // Sheet lit head-on: (1,0,0). Wall behind: lit through the sheet, tinted by
     // kd * (1 - d) = (0.75, 0, 0). Blend: 0.25 * sheet + 0.75 * wall.
     let want = 0.25 * Vec3::new(1.0, 0.0, 0.0) + 0.75 * Vec3::new(0.75, 0.0, 0.0);
     close(centre(&scene, &settings()), want);
-    let opaque = RenderSettings {
-        transparency: false,
-        ..settings()
-    };
+    let opaque = RenderSettings { transparency: false, ..settings() };
     close(centre(&scene, &opaque), Vec3::new(1.0, 0.0, 0.0));
 }
 
@@ -209,12 +147,7 @@ fn aovs_report_first_hits() {
     let scene = Scene::from_desc(&empty, &LoadContext::default()).unwrap();
     assert!(render_aov(&scene, &s, Aov::Depth, &|_| {}).pixel(0, 0)[0].is_nan());
     assert_eq!(render_aov(&scene, &s, Aov::PrimId, &|_| {}).pixel(0, 0)[0], -1.0);
-    assert!(
-        render_aov(&scene, &s, Aov::Position, &|_| {})
-            .pixel(4, 4)
-            .iter()
-            .all(|v| v.is_nan())
-    );
+    assert!(render_aov(&scene, &s, Aov::Position, &|_| {}).pixel(4, 4).iter().all(|v| v.is_nan()));
 }
 
 /// A closed, curved mesh: an icosahedron subdivided and pushed onto the unit sphere.
@@ -285,10 +218,7 @@ fn spawned_rays_never_rehit_their_surface() {
     let mut rng = Rng(21);
     for scale in [1e-3f32, 1.0, 1e3] {
         let (v, f) = sphere_mesh(4);
-        let v = v
-            .into_iter()
-            .map(|p| p * scale + Vec3::new(0.3, -0.2, 0.1) * scale)
-            .collect();
+        let v = v.into_iter().map(|p| p * scale + Vec3::new(0.3, -0.2, 0.1) * scale).collect();
         let scene = Scene::from_desc(&inline_scene(v, f), &LoadContext::default()).unwrap();
         let s = RenderSettings::default();
         let mut tested = 0;
@@ -303,18 +233,11 @@ fn spawned_rays_never_rehit_their_surface() {
                 let d = rng.dir();
                 let r = Ray::spawn(si.point, si.geo_normal, d, 0.0);
                 if let Some(h2) = scene.intersect(&r) {
-                    assert!(
-                        h2.prim != hit.prim,
-                        "scale {scale}: re-hit own triangle at t = {}",
-                        h2.t
-                    );
+                    assert!(h2.prim != hit.prim, "scale {scale}: re-hit own triangle at t = {}", h2.t);
                 }
             }
             let target = si.point + si.geo_normal * (0.05 * scale);
-            assert!(
-                !scene.occluded(&Ray::spawn_to(si.point, si.geo_normal, target, 0.0)),
-                "scale {scale}"
-            );
+            assert!(!scene.occluded(&Ray::spawn_to(si.point, si.geo_normal, target, 0.0)), "scale {scale}");
         }
         assert!(tested > 500);
     }
@@ -324,29 +247,16 @@ fn spawned_rays_never_rehit_their_surface() {
 fn no_peter_panning_at_contact() {
     // A box standing on a floor: floor points right next to the box's base, on the side away
     // from the light, must be in shadow (the offset must not let shadow rays slip under).
-    let floor = MaterialDesc {
-        kd: Some(Vec3::ONE),
-        ..Default::default()
-    };
+    let floor = MaterialDesc { kd: Some(Vec3::ONE), ..Default::default() };
     let s = 10.0;
     let mut scene = inline_scene(
-        vec![
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(s, 0.0, -s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(-s, 0.0, s),
-        ],
+        vec![Vec3::new(-s, 0.0, -s), Vec3::new(s, 0.0, -s), Vec3::new(s, 0.0, s), Vec3::new(-s, 0.0, s)],
         vec![[0, 1, 2], [0, 2, 3]],
     );
     scene.meshes[0].material = Some(floor);
     // A wall x in [0, 0.1], y in [0, 1], standing on the floor.
     let wall = inline_scene(
-        vec![
-            Vec3::new(0.0, 0.0, -1.0),
-            Vec3::new(0.0, 1.0, -1.0),
-            Vec3::new(0.0, 1.0, 1.0),
-            Vec3::new(0.0, 0.0, 1.0),
-        ],
+        vec![Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.0, 1.0, -1.0), Vec3::new(0.0, 1.0, 1.0), Vec3::new(0.0, 0.0, 1.0)],
         vec![[0, 1, 2], [0, 2, 3]],
     );
     scene.meshes.extend(wall.meshes);

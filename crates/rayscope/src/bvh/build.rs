@@ -48,11 +48,7 @@ impl Bvh {
             .iter()
             .enumerate()
             .filter(|(_, b)| b.is_finite() && !b.is_empty())
-            .map(|(i, b)| BuildPrim {
-                bounds: *b,
-                centroid: b.center(),
-                index: i as u32,
-            })
+            .map(|(i, b)| BuildPrim { bounds: *b, centroid: b.center(), index: i as u32 })
             .collect();
         if prims.is_empty() {
             return Bvh::default();
@@ -66,10 +62,7 @@ impl Bvh {
                 node.start += i as u32;
             }
         }
-        Bvh {
-            nodes,
-            prim_indices: prims.iter().map(|p| p.index).collect(),
-        }
+        Bvh { nodes, prim_indices: prims.iter().map(|p| p.index).collect() }
     }
 }
 
@@ -111,10 +104,8 @@ fn build_node(prims: &mut [BuildPrim], offset: u32, depth: usize, params: &Build
     let (left, right) = prims.split_at_mut(mid);
     let right_offset = offset + mid as u32;
     if n > params.parallel_threshold {
-        let (l, r) = join(
-            || subtree(left, offset, depth + 1, params),
-            || subtree(right, right_offset, depth + 1, params),
-        );
+        let (l, r) =
+            join(|| subtree(left, offset, depth + 1, params), || subtree(right, right_offset, depth + 1, params));
         out[here].start = 1 + l.len() as u32;
         out.extend(l);
         out.extend(r);
@@ -142,13 +133,7 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     let extent = centroids.extent();
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     let mut best: Option<Split> = None;
-    let mut bins = vec![
-        Bin {
-            bounds: Aabb::EMPTY,
-            count: 0
-        };
-        nb
-    ];
+    let mut bins = vec![Bin { bounds: Aabb::EMPTY, count: 0 }; nb];
     let mut right_area = vec![0.0f32; nb];
     let mut right_count = vec![0u32; nb];
     for axis in 0..3 {
@@ -157,10 +142,7 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
         }
         let lo = centroids.min[axis];
         let scale = nb as f32 / extent[axis];
-        bins.fill(Bin {
-            bounds: Aabb::EMPTY,
-            count: 0,
-        });
+        bins.fill(Bin { bounds: Aabb::EMPTY, count: 0 });
         for p in prims {
             let b = &mut bins[bin_of(p.centroid[axis], lo, scale, nb)];
             b.bounds = b.bounds.union(p.bounds);

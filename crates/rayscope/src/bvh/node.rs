@@ -32,12 +32,7 @@ const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 impl BvhNode {
     /// A node with this box.
     pub fn new(bounds: Aabb, start: u32, count: u32) -> BvhNode {
-        BvhNode {
-            min: bounds.min.to_array(),
-            start,
-            max: bounds.max.to_array(),
-            count,
-        }
+        BvhNode { min: bounds.min.to_array(), start, max: bounds.max.to_array(), count }
     }
 
     /// Whether the node is a leaf.
@@ -49,9 +44,6 @@ impl BvhNode {
     /// The node's box.
     #[inline(always)]
     pub fn bounds(&self) -> Aabb {
-        Aabb {
-            min: Vec3A::from_array(self.min),
-            max: Vec3A::from_array(self.max),
-        }
+        Aabb { min: Vec3A::from_array(self.min), max: Vec3A::from_array(self.max) }
     }
 }

@@ -59,10 +59,7 @@ impl Bvh {
 
     /// Node and leaf counts, levels, mean leaf size and SAH cost.
     pub fn stats(&self) -> BvhStats {
-        let mut s = BvhStats {
-            nodes: self.nodes.len(),
-            ..BvhStats::default()
-        };
+        let mut s = BvhStats { nodes: self.nodes.len(), ..BvhStats::default() };
         let Some(root) = self.nodes.first() else {
             return s;
         };
@@ -91,12 +88,7 @@ impl Bvh {
         let mut out = Vec::new();
         self.walk(|i, l, n| {
             if l == level || (l < level && n.is_leaf()) {
-                out.push(LevelBox {
-                    node: i as u32,
-                    bounds: n.bounds(),
-                    level: l,
-                    is_leaf: n.is_leaf(),
-                });
+                out.push(LevelBox { node: i as u32, bounds: n.bounds(), level: l, is_leaf: n.is_leaf() });
             }
         });
         out

@@ -20,10 +20,7 @@ impl Default for Aabb {
 
 impl Aabb {
     /// The box containing nothing.
-    pub const EMPTY: Aabb = Aabb {
-        min: Vec3A::splat(f32::INFINITY),
-        max: Vec3A::splat(f32::NEG_INFINITY),
-    };
+    pub const EMPTY: Aabb = Aabb { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
 
     /// The smallest box containing all `points`.
     pub fn from_points(points: impl IntoIterator<Item = Vec3A>) -> Aabb {
@@ -33,19 +30,13 @@ impl Aabb {
     /// This box grown to contain `p`.
     #[inline]
     pub fn grow(self, p: Vec3A) -> Aabb {
-        Aabb {
-            min: self.min.min(p),
-            max: self.max.max(p),
-        }
+        Aabb { min: self.min.min(p), max: self.max.max(p) }
     }
 
     /// The smallest box containing both.
     #[inline]
     pub fn union(self, o: Aabb) -> Aabb {
-        Aabb {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-        }
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
     }
 
     /// Whether the box contains no point.

@@ -16,10 +16,7 @@ pub struct Sphere {
 impl Sphere {
     /// The bounding box.
     pub fn bounds(&self) -> Aabb {
-        Aabb {
-            min: self.center - Vec3A::splat(self.radius),
-            max: self.center + Vec3A::splat(self.radius),
-        }
+        Aabb { min: self.center - Vec3A::splat(self.radius), max: self.center + Vec3A::splat(self.radius) }
     }
 
     /// Nearest intersection in `[t_min, t_max]`: the near root, else the far one (the ray
@@ -44,10 +41,7 @@ impl Sphere {
         if t0 > t1 {
             std::mem::swap(&mut t0, &mut t1);
         }
-        [t0, t1]
-            .into_iter()
-            .find(|t| *t >= t_min && *t <= t_max)
-            .map(|t| PrimHit { t, u: 0.0, v: 0.0 })
+        [t0, t1].into_iter().find(|t| *t >= t_min && *t <= t_max).map(|t| PrimHit { t, u: 0.0, v: 0.0 })
     }
 }
 
@@ -56,10 +50,7 @@ mod tests {
     use super::*;
 
     fn unit() -> Sphere {
-        Sphere {
-            center: Vec3A::new(0.0, 0.0, 5.0),
-            radius: 1.0,
-        }
+        Sphere { center: Vec3A::new(0.0, 0.0, 5.0), radius: 1.0 }
     }
 
     #[test]
@@ -83,13 +74,8 @@ mod tests {
 
     #[test]
     fn far_origin_keeps_precision() {
-        let s = Sphere {
-            center: Vec3A::new(0.0, 0.0, 1.0e4),
-            radius: 1.0,
-        };
-        let h = s
-            .intersect(&Ray::new(Vec3A::ZERO, Vec3A::Z), 0.0, f32::INFINITY)
-            .unwrap();
+        let s = Sphere { center: Vec3A::new(0.0, 0.0, 1.0e4), radius: 1.0 };
+        let h = s.intersect(&Ray::new(Vec3A::ZERO, Vec3A::Z), 0.0, f32::INFINITY).unwrap();
         assert!((h.t - (1.0e4 - 1.0)).abs() < 1e-2);
     }
 }

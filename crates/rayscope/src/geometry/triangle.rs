@@ -20,11 +20,7 @@ impl Triangle {
     /// The triangle with these corners.
     #[inline]
     pub fn new(v0: Vec3A, v1: Vec3A, v2: Vec3A) -> Triangle {
-        Triangle {
-            v0,
-            e1: v1 - v0,
-            e2: v2 - v0,
-        }
+        Triangle { v0, e1: v1 - v0, e2: v2 - v0 }
     }
 
     /// The three corners.
@@ -93,10 +89,7 @@ mod tests {
     #[test]
     fn edges_and_vertices_are_hit() {
         for (x, y) in [(0.5, 0.0), (0.0, 0.5), (0.5, 0.5), (0.0, 0.0), (1.0, 0.0), (0.0, 1.0)] {
-            assert!(
-                tri().intersect(&ray_down(x, y), 0.0, f32::INFINITY).is_some(),
-                "({x},{y})"
-            );
+            assert!(tri().intersect(&ray_down(x, y), 0.0, f32::INFINITY).is_some(), "({x},{y})");
         }
     }
 

@@ -55,9 +55,7 @@ pub fn load_obj(path: &Path) -> Result<ObjFile> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     parse_obj(&text, path, |mtl| {
         let p = dir.join(mtl);
-        std::fs::read_to_string(&p)
-            .map(|t| (p.clone(), t))
-            .map_err(|e| Error::io(&p, e))
+        std::fs::read_to_string(&p).map(|t| (p.clone(), t)).map_err(|e| Error::io(&p, e))
     })
 }
 
@@ -65,12 +63,7 @@ pub fn load_obj(path: &Path) -> Result<ObjFile> {
 /// file named by `mtllib`.
 pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(PathBuf, String)>) -> Result<ObjFile> {
     scan_obj(text, path)?;
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
+    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     let mtl_error = std::cell::RefCell::new(None);
     let (models, materials) = tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &opts, |mtl_path| {
         let name = mtl_path.to_string_lossy();
@@ -127,11 +120,7 @@ fn unify(name: &str, mesh: &tobj::Mesh, positions: Vec<Vec3>, material: Option<u
         smooth_normals(&positions, &mesh.indices)
     };
     let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(Vec2::from_slice).collect();
-    let mut out = ObjMesh {
-        name: name.to_string(),
-        material,
-        ..ObjMesh::default()
-    };
+    let mut out = ObjMesh { name: name.to_string(), material, ..ObjMesh::default() };
     let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(positions.len());
     let mut corners = Vec::with_capacity(mesh.indices.len());
     for (k, &pi) in mesh.indices.iter().enumerate() {
@@ -174,14 +163,10 @@ fn convert_material(m: &tobj::Material, dir: &Path) -> ObjMaterial {
         shininess: m.shininess.unwrap_or(d.shininess),
         transparency: m.dissolve.unwrap_or(1.0).clamp(0.0, 1.0),
         texture: None,
+        glossiness: None,
     };
     // Textures are named relative to the MTL file, which `mtllib` names relative to the OBJ.
-    let texture = m
-        .diffuse_texture
-        .as_deref()
-        .map(str::trim)
-        .filter(|t| !t.is_empty())
-        .map(|t| dir.join(t));
+    let texture = m.diffuse_texture.as_deref().map(str::trim).filter(|t| !t.is_empty()).map(|t| dir.join(t));
     ObjMaterial { material, texture }
 }
 
@@ -194,15 +179,9 @@ fn parse_floats(path: &Path, line_no: usize, words: &[&str], min: usize, max: us
         ));
     }
     for w in words {
-        let v: f32 = w
-            .parse()
-            .map_err(|_| Error::parse(path, Some(line_no), format!("'{w}' is not a number")))?;
+        let v: f32 = w.parse().map_err(|_| Error::parse(path, Some(line_no), format!("'{w}' is not a number")))?;
         if !v.is_finite() {
-            return Err(Error::parse(
-                path,
-                Some(line_no),
-                format!("'{w}' is not a finite number"),
-            ));
+            return Err(Error::parse(path, Some(line_no), format!("'{w}' is not a finite number")));
         }
     }
     Ok(())
@@ -247,11 +226,7 @@ fn scan_obj(text: &str, path: &Path) -> Result<()> {
                             Error::parse(path, Some(n), format!("'{corner}' is not a valid face vertex"))
                         })?;
                         let count = counts[[0, 1, 2][k]];
-                        let ok = if idx > 0 {
-                            idx <= count
-                        } else {
-                            idx < 0 && -idx <= count
-                        };
+                        let ok = if idx > 0 { idx <= count } else { idx < 0 && -idx <= count };
                         if !ok {
                             let what = ["vertex", "texture coordinate", "normal"][k];
                             return Err(Error::parse(
@@ -345,18 +320,11 @@ mod tests {
     #[test]
     fn materials_are_read_and_checked() {
         let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
-        let good = |_: &str| {
-            Ok((
-                PathBuf::from("m.mtl"),
-                "newmtl red\nKd 1 0 0\nKs 0.5 0.5 0.5\nNs 20\nd 0.5\n".to_string(),
-            ))
-        };
+        let good =
+            |_: &str| Ok((PathBuf::from("m.mtl"), "newmtl red\nKd 1 0 0\nKs 0.5 0.5 0.5\nNs 20\nd 0.5\n".to_string()));
         let f = parse_obj(obj, Path::new("t.obj"), good).unwrap();
         let m = &f.materials[f.meshes[0].material.unwrap()].material;
-        assert_eq!(
-            (m.kd, m.ks, m.shininess, m.transparency),
-            (Vec3::X, Vec3::splat(0.5), 20.0, 0.5)
-        );
+        assert_eq!((m.kd, m.ks, m.shininess, m.transparency), (Vec3::X, Vec3::splat(0.5), 20.0, 0.5));
         let bad = |_: &str| Ok((PathBuf::from("m.mtl"), "newmtl red\nKd 1 zero 0\n".to_string()));
         match parse_obj(obj, Path::new("t.obj"), bad) {
             Err(Error::Parse { path, line, .. }) => {
@@ -364,9 +332,6 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        assert!(matches!(
-            parse_obj(obj, Path::new("t.obj"), no_mtl),
-            Err(Error::Io { .. })
-        ));
+        assert!(matches!(parse_obj(obj, Path::new("t.obj"), no_mtl), Err(Error::Io { .. })));
     }
 }

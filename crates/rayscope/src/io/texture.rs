@@ -16,9 +16,6 @@ pub fn load_texture(path: &Path) -> Result<Texture> {
     if width == 0 || height == 0 {
         return Err(Error::parse(path, None, "image has no pixels"));
     }
-    let texels = img
-        .pixels()
-        .map(|p| Color::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
-        .collect();
+    let texels = img.pixels().map(|p| Color::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).collect();
     Ok(Texture { width, height, texels })
 }

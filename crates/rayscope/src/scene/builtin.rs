@@ -39,11 +39,7 @@ pub const BUILTINS: &[BuiltinInfo] = &[
         description: "Cornell box, red/green/blue/cyan parallelogram light",
         needs_assets: false,
     },
-    BuiltinInfo {
-        name: "single-triangle",
-        description: "one triangle, point light (-1, 1, -1)",
-        needs_assets: false,
-    },
+    BuiltinInfo { name: "single-triangle", description: "one triangle, point light (-1, 1, -1)", needs_assets: false },
     BuiltinInfo {
         name: "cube",
         description: "the course cube (translucent), point light (-1, 1, -1)",
@@ -59,21 +55,9 @@ pub const BUILTINS: &[BuiltinInfo] = &[
         description: "three spheres, point light (3, 0, 3) of colour 15",
         needs_assets: false,
     },
-    BuiltinInfo {
-        name: "monkey",
-        description: "Suzanne (monkey-rotated.obj), two point lights",
-        needs_assets: true,
-    },
-    BuiltinInfo {
-        name: "teapot",
-        description: "textured Utah teapot (teapot.obj)",
-        needs_assets: true,
-    },
-    BuiltinInfo {
-        name: "dragon",
-        description: "100k-triangle Stanford dragon (dragon.obj)",
-        needs_assets: true,
-    },
+    BuiltinInfo { name: "monkey", description: "Suzanne (monkey-rotated.obj), two point lights", needs_assets: true },
+    BuiltinInfo { name: "teapot", description: "textured Utah teapot (teapot.obj)", needs_assets: true },
+    BuiltinInfo { name: "dragon", description: "100k-triangle Stanford dragon (dragon.obj)", needs_assets: true },
     BuiltinInfo {
         name: "cube-textured",
         description: "the 2022 textured cube (v2022/cube-textured.obj)",
@@ -85,10 +69,7 @@ pub const BUILTINS: &[BuiltinInfo] = &[
 pub const DEFAULT_SCENE: &str = "cornell-box";
 
 fn point(x: f32, y: f32, z: f32) -> Light {
-    Light::Point {
-        position: Vec3::new(x, y, z),
-        color: Vec3::ONE,
-    }
+    Light::Point { position: Vec3::new(x, y, z), color: Vec3::ONE }
 }
 
 fn scene(name: &str, meshes: Vec<MeshDesc>, spheres: Vec<SphereDesc>, lights: Vec<Light>) -> SceneDesc {
@@ -98,16 +79,12 @@ fn scene(name: &str, meshes: Vec<MeshDesc>, spheres: Vec<SphereDesc>, lights: Ve
         meshes,
         spheres,
         lights,
-        render: None,
+        ..SceneDesc::default()
     }
 }
 
 fn asset(path: &str) -> MeshDesc {
-    MeshDesc {
-        asset: Some(path.into()),
-        normalize: true,
-        ..MeshDesc::default()
-    }
+    MeshDesc { asset: Some(path.into()), normalize: true, ..MeshDesc::default() }
 }
 
 /// The description of built-in scene `name`.
@@ -119,11 +96,7 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
             name,
             vec![cornell_box()],
             vec![],
-            vec![Light::Sphere {
-                center: l(0.0, 0.45, 0.0),
-                radius: 0.1,
-                color: Vec3::ONE,
-            }],
+            vec![Light::Sphere { center: l(0.0, 0.45, 0.0), radius: 0.1, color: Vec3::ONE }],
         ),
         "cornell-box-parallelogram-light" => scene(
             name,
@@ -156,10 +129,8 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
             let s = |c: Vec3, r: f32, kd: Vec3| SphereDesc {
                 center: c,
                 radius: r,
-                material: MaterialDesc {
-                    kd: Some(kd),
-                    ..MaterialDesc::default()
-                },
+                material: MaterialDesc { kd: Some(kd), ..MaterialDesc::default() },
+                motion: None,
             };
             scene(
                 name,
@@ -169,35 +140,23 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
                     s(l(-2.0, 2.0, 4.0), 2.0, l(0.6, 0.8, 0.2)),
                     s(l(0.0, 0.0, 6.0), 0.75, l(0.2, 0.2, 0.8)),
                 ],
-                vec![Light::Point {
-                    position: l(3.0, 0.0, 3.0),
-                    color: Vec3::splat(15.0),
-                }],
+                vec![Light::Point { position: l(3.0, 0.0, 3.0), color: Vec3::splat(15.0) }],
             )
         }
-        "monkey" => scene(
-            name,
-            vec![asset("monkey-rotated.obj")],
-            vec![],
-            vec![point(-1.0, 1.0, -1.0), point(1.0, -1.0, -1.0)],
-        ),
+        "monkey" => {
+            scene(name, vec![asset("monkey-rotated.obj")], vec![], vec![point(-1.0, 1.0, -1.0), point(1.0, -1.0, -1.0)])
+        }
         "teapot" => scene(name, vec![asset("teapot.obj")], vec![], vec![point(-1.0, 1.0, -1.0)]),
         "dragon" => scene(name, vec![asset("dragon.obj")], vec![], vec![point(-1.0, 1.0, -1.0)]),
         "cube-textured" => scene(
             name,
-            vec![MeshDesc {
-                normalize: false,
-                ..asset("v2022/cube-textured.obj")
-            }],
+            vec![MeshDesc { normalize: false, ..asset("v2022/cube-textured.obj") }],
             vec![],
             vec![point(-1.0, 1.5, -1.0)],
         ),
         _ => {
             let known = BUILTINS.iter().map(|b| b.name).collect::<Vec<_>>().join(", ");
-            return Err(Error::UnknownScene {
-                name: name.to_string(),
-                known,
-            });
+            return Err(Error::UnknownScene { name: name.to_string(), known });
         }
     })
 }
@@ -210,6 +169,7 @@ fn material(name: &str, kd: Vec3, ks: Vec3, shininess: f32, transparency: f32) -
         shininess: Some(shininess),
         transparency: Some(transparency),
         texture: None,
+        glossiness: None,
     }
 }
 
@@ -256,51 +216,11 @@ pub fn cornell_box() -> MeshDesc {
         material("light", Vec3::splat(0.78), Vec3::ZERO, 10.000002, 1.0),
     ];
     let mut quads = vec![
-        (
-            [
-                v(1.01, 0.0, -0.99),
-                v(-1.0, 0.0, -0.99),
-                v(-1.0, 0.0, 1.04),
-                v(0.99, 0.0, 1.04),
-            ],
-            0,
-        ),
-        (
-            [
-                v(1.02, 1.99, -0.99),
-                v(1.02, 1.99, 1.04),
-                v(-1.0, 1.99, 1.04),
-                v(-1.0, 1.99, -0.99),
-            ],
-            1,
-        ),
-        (
-            [
-                v(0.99, 0.0, 1.04),
-                v(-1.0, 0.0, 1.04),
-                v(-1.0, 1.99, 1.04),
-                v(1.02, 1.99, 1.04),
-            ],
-            2,
-        ),
-        (
-            [
-                v(-1.0, 0.0, 1.04),
-                v(-1.0, 0.0, -0.99),
-                v(-1.0, 1.99, -0.99),
-                v(-1.0, 1.99, 1.04),
-            ],
-            3,
-        ),
-        (
-            [
-                v(1.01, 0.0, -0.99),
-                v(0.99, 0.0, 1.04),
-                v(1.02, 1.99, 1.04),
-                v(1.02, 1.99, -0.99),
-            ],
-            4,
-        ),
+        ([v(1.01, 0.0, -0.99), v(-1.0, 0.0, -0.99), v(-1.0, 0.0, 1.04), v(0.99, 0.0, 1.04)], 0),
+        ([v(1.02, 1.99, -0.99), v(1.02, 1.99, 1.04), v(-1.0, 1.99, 1.04), v(-1.0, 1.99, -0.99)], 1),
+        ([v(0.99, 0.0, 1.04), v(-1.0, 0.0, 1.04), v(-1.0, 1.99, 1.04), v(1.02, 1.99, 1.04)], 2),
+        ([v(-1.0, 0.0, 1.04), v(-1.0, 0.0, -0.99), v(-1.0, 1.99, -0.99), v(-1.0, 1.99, 1.04)], 3),
+        ([v(1.01, 0.0, -0.99), v(0.99, 0.0, 1.04), v(1.02, 1.99, 1.04), v(1.02, 1.99, -0.99)], 4),
     ];
     // A box: its top, then one side per footprint edge (bottom corners, then top corners).
     let boxed = |foot: [Vec2; 4], h: f32, sides: [(usize, usize); 4], m: u32, quads: &mut Vec<([Vec3; 4], u32)>| {
@@ -315,15 +235,7 @@ pub fn cornell_box() -> MeshDesc {
     boxed(short, 0.6, [(3, 2), (0, 3), (1, 0), (2, 1)], 5, &mut quads);
     let tall = [p(0.53, -0.09), p(-0.04, 0.09), p(0.14, 0.67), p(0.71, 0.49)];
     boxed(tall, 1.2, [(0, 3), (3, 2), (2, 1), (1, 0)], 6, &mut quads);
-    quads.push((
-        [
-            v(0.24, 1.98, -0.16),
-            v(0.24, 1.98, 0.22),
-            v(-0.23, 1.98, 0.22),
-            v(-0.23, 1.98, -0.16),
-        ],
-        7,
-    ));
+    quads.push(([v(0.24, 1.98, -0.16), v(0.24, 1.98, 0.22), v(-0.23, 1.98, 0.22), v(-0.23, 1.98, -0.16)], 7));
     quads_mesh("CornellBox-Mirror", &quads, materials, true)
 }
 
@@ -335,11 +247,7 @@ pub fn single_triangle() -> MeshDesc {
         vertices: Some(vec![Vec3::ZERO, Vec3::Z, Vec3::Y]),
         faces: Some(vec![[0, 1, 2]]),
         normals: Some(vec![-Vec3::Z; 3]),
-        materials: vec![MaterialDesc {
-            name: Some("white".into()),
-            kd: Some(Vec3::ONE),
-            ..MaterialDesc::default()
-        }],
+        materials: vec![MaterialDesc { name: Some("white".into()), kd: Some(Vec3::ONE), ..MaterialDesc::default() }],
         ..MeshDesc::default()
     }
 }

@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::{Mesh, Scene, SceneSphere};
+use super::{Mesh, Motion, Scene, SceneSphere};
 use crate::camera::CameraDesc;
 use crate::error::{Error, Result};
 use crate::io::obj::{ObjFile, load_obj, smooth_normals};
@@ -60,9 +60,24 @@ pub struct SceneDesc {
     /// Lights.
     #[serde(default, rename = "light", skip_serializing_if = "Vec::is_empty")]
     pub lights: Vec<Light>,
+    /// Where the camera is when the shutter closes (motion blur); `None`: it stands still.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_end: Option<CameraDesc>,
     /// Render settings the scene asks for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render: Option<RenderSettings>,
+}
+
+/// A linear motion during the exposure: translated by `start` when the shutter opens and by
+/// `end` when it closes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionDesc {
+    /// Translation at shutter open.
+    #[serde(default)]
+    pub start: Vec3,
+    /// Translation at shutter close.
+    pub end: Vec3,
 }
 
 /// A mesh: from an OBJ file (`path` or `asset`) or given inline (`vertices` and `faces`).
@@ -106,6 +121,9 @@ pub struct MeshDesc {
     /// Overrides the fields it names in every material of the mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<MaterialDesc>,
+    /// Linear motion during the exposure (motion blur).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionDesc>,
 }
 
 /// Scale, then rotate (Euler degrees, course convention), then translate.
@@ -122,11 +140,7 @@ pub struct TransformDesc {
 
 impl Default for TransformDesc {
     fn default() -> Self {
-        TransformDesc {
-            translate: Vec3::ZERO,
-            rotate: Vec3::ZERO,
-            scale: 1.0,
-        }
+        TransformDesc { translate: Vec3::ZERO, rotate: Vec3::ZERO, scale: 1.0 }
     }
 }
 
@@ -141,6 +155,9 @@ pub struct SphereDesc {
     /// Material (unnamed fields take the default material's values).
     #[serde(default)]
     pub material: MaterialDesc,
+    /// Linear motion during the exposure (motion blur).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionDesc>,
 }
 
 /// Where relative paths in a description are resolved.
@@ -154,10 +171,7 @@ pub struct LoadContext {
 
 impl Default for LoadContext {
     fn default() -> Self {
-        LoadContext {
-            base_dir: PathBuf::from("."),
-            assets: None,
-        }
+        LoadContext { base_dir: PathBuf::from("."), assets: None }
     }
 }
 
@@ -180,17 +194,10 @@ impl SceneDesc {
             let mut line = e.span().map(|_| line_of(start));
             // Tagged tables (camera, lights) are buffered before serde sees their fields, so
             // the span covers the whole table; point at the offending key instead.
-            if let Some(key) = e
-                .message()
-                .strip_prefix("unknown field `")
-                .and_then(|m| m.split('`').next())
-            {
+            if let Some(key) = e.message().strip_prefix("unknown field `").and_then(|m| m.split('`').next()) {
                 let mut offset = start;
                 for l in text[start..].split_inclusive('\n') {
-                    if l.trim_start()
-                        .strip_prefix(key)
-                        .is_some_and(|r| r.trim_start().starts_with('='))
-                    {
+                    if l.trim_start().strip_prefix(key).is_some_and(|r| r.trim_start().starts_with('=')) {
                         line = Some(line_of(offset));
                         break;
                     }
@@ -210,15 +217,8 @@ impl SceneDesc {
     pub fn for_obj(path: &Path) -> SceneDesc {
         SceneDesc {
             name: path.file_name().map(|n| n.to_string_lossy().into_owned()),
-            meshes: vec![MeshDesc {
-                path: Some(path.to_path_buf()),
-                normalize: true,
-                ..MeshDesc::default()
-            }],
-            lights: vec![Light::Point {
-                position: Vec3::new(-1.0, 1.0, -1.0),
-                color: Vec3::ONE,
-            }],
+            meshes: vec![MeshDesc { path: Some(path.to_path_buf()), normalize: true, ..MeshDesc::default() }],
+            lights: vec![Light::Point { position: Vec3::new(-1.0, 1.0, -1.0), color: Vec3::ONE }],
             ..SceneDesc::default()
         }
     }
@@ -233,6 +233,7 @@ fn apply_override(m: &mut Material, o: &MaterialDesc, textures: &mut TextureCach
     m.ks = o.ks.unwrap_or(m.ks);
     m.shininess = o.shininess.unwrap_or(m.shininess);
     m.transparency = o.transparency.unwrap_or(m.transparency);
+    m.glossiness = o.glossiness.or(m.glossiness);
     if let Some(t) = &o.texture {
         m.texture = Some(textures.get(&base.join(t))?);
     }
@@ -240,12 +241,16 @@ fn apply_override(m: &mut Material, o: &MaterialDesc, textures: &mut TextureCach
 }
 
 fn validate_material(m: &Material) -> Result<()> {
-    let ok = m.kd.is_finite() && m.ks.is_finite() && m.shininess.is_finite() && (0.0..=1.0).contains(&m.transparency);
+    let ok = m.kd.is_finite()
+        && m.ks.is_finite()
+        && m.shininess.is_finite()
+        && (0.0..=1.0).contains(&m.transparency)
+        && m.glossiness.is_none_or(|g| g >= 0.0);
     if ok {
         Ok(())
     } else {
         Err(Error::Invalid(format!(
-            "material '{}': values must be finite and transparency in [0, 1]",
+            "material '{}': values must be finite, transparency in [0, 1] and glossiness >= 0",
             m.name
         )))
     }
@@ -279,20 +284,13 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
     let file = match (&d.path, &d.asset, &d.vertices) {
         (Some(p), None, None) => Some(ctx.base_dir.join(p)),
         (None, Some(a), None) => {
-            let dir = ctx
-                .assets
-                .clone()
-                .or_else(default_assets)
-                .ok_or_else(|| Error::MissingAsset {
-                    scene: scene.to_string(),
-                    path: PathBuf::from("../shared/scenes").join(a),
-                })?;
+            let dir = ctx.assets.clone().or_else(default_assets).ok_or_else(|| Error::MissingAsset {
+                scene: scene.to_string(),
+                path: PathBuf::from("../shared/scenes").join(a),
+            })?;
             let p = dir.join(a);
             if !p.is_file() {
-                return Err(Error::MissingAsset {
-                    scene: scene.to_string(),
-                    path: p,
-                });
+                return Err(Error::MissingAsset { scene: scene.to_string(), path: p });
             }
             Some(p)
         }
@@ -304,11 +302,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
         }
     };
     if let Some(path) = file {
-        let ObjFile {
-            meshes,
-            materials,
-            raw_positions,
-        } = load_obj(&path)?;
+        let ObjFile { meshes, materials, raw_positions } = load_obj(&path)?;
         let meshes = meshes
             .into_iter()
             .map(|m| {
@@ -318,27 +312,20 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
                     normals: m.normals.into_iter().map(Vec3A::from).collect(),
                     uvs: m.uvs,
                     materials: vec![0; m.triangles.len()],
+                    motion: None,
                     triangles: m.triangles,
                 };
                 (mesh, m.material)
             })
             .collect();
         let materials = materials.into_iter().map(|m| (m.material, m.texture)).collect();
-        return Ok(Loaded {
-            meshes,
-            raw_positions,
-            materials,
-        });
+        return Ok(Loaded { meshes, raw_positions, materials });
     }
     let vertices = d.vertices.clone().unwrap_or_default();
     let faces = d.faces.clone().unwrap_or_default();
     let n = vertices.len();
-    let bad = |what: String| {
-        Error::Invalid(format!(
-            "scene '{scene}', mesh '{}': {what}",
-            d.name.as_deref().unwrap_or("")
-        ))
-    };
+    let bad =
+        |what: String| Error::Invalid(format!("scene '{scene}', mesh '{}': {what}", d.name.as_deref().unwrap_or("")));
     if let Some(f) = faces.iter().flatten().find(|&&i| i as usize >= n) {
         return Err(bad(format!("face index {f} is out of range ({n} vertices)")));
     }
@@ -357,11 +344,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
         None => Vec::new(),
     };
     let nmat = d.materials.len().max(1);
-    let face_materials = if d.face_materials.is_empty() {
-        vec![0; faces.len()]
-    } else {
-        d.face_materials.clone()
-    };
+    let face_materials = if d.face_materials.is_empty() { vec![0; faces.len()] } else { d.face_materials.clone() };
     if face_materials.len() != faces.len() || face_materials.iter().any(|&m| m as usize >= nmat) {
         return Err(bad("face_materials must give a valid material for every face".into()));
     }
@@ -370,15 +353,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
     for md in &d.materials {
         let mut m = Material::default();
         let texture = md.texture.as_ref().map(|t| ctx.base_dir.join(t));
-        apply_override(
-            &mut m,
-            &MaterialDesc {
-                texture: None,
-                ..md.clone()
-            },
-            &mut unused,
-            &ctx.base_dir,
-        )?;
+        apply_override(&mut m, &MaterialDesc { texture: None, ..md.clone() }, &mut unused, &ctx.base_dir)?;
         materials.push((m, texture));
     }
     let mesh = Mesh {
@@ -388,14 +363,11 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
         uvs,
         triangles: faces,
         materials: face_materials,
+        motion: None,
     };
     // Inline meshes carry per-face material indices already; mark them with `None` so the
     // caller maps them through the local material table.
-    Ok(Loaded {
-        meshes: vec![(mesh, None)],
-        raw_positions: vertices,
-        materials,
-    })
+    Ok(Loaded { meshes: vec![(mesh, None)], raw_positions: vertices, materials })
 }
 
 /// Turn a description into a scene: load files, normalise and place meshes, resolve
@@ -434,14 +406,13 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         for (mut mesh, material) in loaded.meshes {
             if inline {
                 let has = !d.materials.is_empty();
-                mesh.materials
-                    .iter_mut()
-                    .for_each(|m| *m = if has { base + *m } else { default_index });
+                mesh.materials.iter_mut().for_each(|m| *m = if has { base + *m } else { default_index });
             } else {
                 let idx = material.map(|i| base + i as u32).unwrap_or(default_index);
                 mesh.materials.iter_mut().for_each(|m| *m = idx);
             }
             placement.apply(&mut mesh);
+            mesh.motion = motion(&d.motion, &name)?;
             meshes.push(mesh);
         }
     }
@@ -459,14 +430,13 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
             center: s.center.into(),
             radius: s.radius,
             material: materials.len() as u32 - 1,
+            motion: motion(&s.motion, &name)?,
         });
     }
     if let Some(l) = desc.lights.iter().find(|l| !l.is_valid()) {
-        return Err(Error::Invalid(format!(
-            "scene '{name}': light {l:?} has non-finite values or a negative radius"
-        )));
+        return Err(Error::Invalid(format!("scene '{name}': light {l:?} has non-finite values or a negative radius")));
     }
-    Ok(Scene::new(
+    let mut scene = Scene::new(
         name,
         desc.camera.clone(),
         meshes,
@@ -475,7 +445,19 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         textures.textures,
         desc.lights.clone(),
         desc.render.clone(),
-    ))
+    );
+    scene.camera_end = desc.camera_end.clone();
+    Ok(scene)
+}
+
+fn motion(d: &Option<MotionDesc>, scene: &str) -> Result<Option<Motion>> {
+    match d {
+        None => Ok(None),
+        Some(m) if m.start.is_finite() && m.end.is_finite() => {
+            Ok(Some(Motion { start: m.start.into(), end: m.end.into() }))
+        }
+        Some(_) => Err(Error::Invalid(format!("scene '{scene}': motion translations must be finite"))),
+    }
 }
 
 /// The course's normalisation followed by the mesh's transform.
@@ -584,23 +566,12 @@ color3 = [0, 1, 1]
     #[test]
     fn normalisation_fits_the_unit_sphere() {
         let d = MeshDesc {
-            vertices: Some(vec![
-                Vec3::new(10.0, 0.0, 0.0),
-                Vec3::new(14.0, 0.0, 0.0),
-                Vec3::new(12.0, 2.0, 0.0),
-            ]),
+            vertices: Some(vec![Vec3::new(10.0, 0.0, 0.0), Vec3::new(14.0, 0.0, 0.0), Vec3::new(12.0, 2.0, 0.0)]),
             faces: Some(vec![[0, 1, 2]]),
             normalize: true,
             ..MeshDesc::default()
         };
-        let scene = load(
-            &SceneDesc {
-                meshes: vec![d],
-                ..SceneDesc::default()
-            },
-            &LoadContext::default(),
-        )
-        .unwrap();
+        let scene = load(&SceneDesc { meshes: vec![d], ..SceneDesc::default() }, &LoadContext::default()).unwrap();
         let p = &scene.meshes[0].positions;
         let mean = p.iter().copied().sum::<Vec3A>() / 3.0;
         assert!(mean.length() < 1e-6);

@@ -3,6 +3,7 @@
 use super::{Hit, Mesh, PrimRef, SceneSphere};
 use crate::bvh::{BuildParams, Bvh, Primitives, TraversalStats};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
+use crate::math::Vec3A;
 use crate::ray::Ray;
 
 /// A primitive in the form intersection wants.
@@ -12,31 +13,39 @@ pub enum Shape {
     Triangle(Triangle),
     /// A sphere.
     Sphere(Sphere),
+    /// A moving shape: index into [`Geometry::moving`]. Kept out of line so that static
+    /// shapes, the common case, stay small.
+    Moving(u32),
+}
+
+/// A shape translated linearly over the shutter interval.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MovingShape {
+    /// The shape at shutter time 0 (a triangle or a sphere).
+    pub shape: Shape,
+    /// Its displacement from shutter time 0 to 1.
+    pub delta: Vec3A,
 }
 
 impl Shape {
-    /// Intersect within `[t_min, t_max]`.
+    /// Intersect a static shape within `[t_min, t_max]` (a `Moving` one needs its
+    /// [`Geometry`]: see [`Geometry::intersect_shape`]).
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
         match self {
             Shape::Triangle(t) => t.intersect(ray, t_min, t_max),
             Shape::Sphere(s) => s.intersect(ray, t_min, t_max),
+            Shape::Moving(_) => None,
         }
     }
 
-    /// Bounding box.
+    /// Bounding box of a static shape (empty for `Moving`; see [`Geometry::shape_bounds`]).
     pub fn bounds(&self) -> Aabb {
         match self {
             Shape::Triangle(t) => t.bounds(),
             Shape::Sphere(s) => s.bounds(),
+            Shape::Moving(_) => Aabb::EMPTY,
         }
-    }
-}
-
-impl Primitives for [Shape] {
-    #[inline(always)]
-    fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
-        self[index as usize].intersect(ray, t_min, t_max)
     }
 }
 
@@ -47,22 +56,60 @@ pub struct Geometry {
     pub bvh: Bvh,
     /// Shapes in BVH slot order.
     pub shapes: Vec<Shape>,
+    /// Moving shapes, referenced by [`Shape::Moving`].
+    pub moving: Vec<MovingShape>,
+}
+
+impl Primitives for Geometry {
+    #[inline(always)]
+    fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
+        self.intersect_shape(&self.shapes[index as usize], ray, t_min, t_max)
+    }
 }
 
 impl Geometry {
     /// Build over every triangle of `meshes` and every sphere, in global primitive order.
     pub fn build(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef]) -> Geometry {
-        let shapes = all_shapes(meshes, spheres, prims);
-        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
-        let bvh = Bvh::build(&bounds, &BuildParams::default());
-        let shapes = bvh.prim_indices.iter().map(|&i| shapes[i as usize]).collect();
-        Geometry { bvh, shapes }
+        let mut moving = Vec::new();
+        let shapes = all_shapes(meshes, spheres, prims, &mut moving);
+        let mut geometry = Geometry { bvh: Bvh::default(), shapes: Vec::new(), moving };
+        let bounds: Vec<Aabb> = shapes.iter().map(|s| geometry.shape_bounds(s)).collect();
+        geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
+        geometry.shapes = geometry.bvh.prim_indices.iter().map(|&i| shapes[i as usize]).collect();
+        geometry
+    }
+
+    /// Intersect `shape` (moving ones at the ray's time).
+    #[inline(always)]
+    pub fn intersect_shape(&self, shape: &Shape, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
+        match shape {
+            Shape::Moving(i) => {
+                let m = &self.moving[*i as usize];
+                // Moving the ray back is moving the shape forward.
+                let local = Ray { origin: ray.origin - m.delta * ray.time, ..*ray };
+                m.shape.intersect(&local, t_min, t_max)
+            }
+            s => s.intersect(ray, t_min, t_max),
+        }
+    }
+
+    /// The box of `shape` over the whole shutter interval: for a linear translation, the
+    /// union of its boxes at the two ends.
+    pub fn shape_bounds(&self, shape: &Shape) -> Aabb {
+        match shape {
+            Shape::Moving(i) => {
+                let m = &self.moving[*i as usize];
+                let b = m.shape.bounds();
+                b.union(Aabb { min: b.min + m.delta, max: b.max + m.delta })
+            }
+            s => s.bounds(),
+        }
     }
 
     /// Closest hit, with its global primitive id.
     #[inline]
     pub fn intersect(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
-        self.bvh.intersect_counted(ray, &self.shapes[..], stats).map(|h| Hit {
+        self.bvh.intersect_counted(ray, self, stats).map(|h| Hit {
             t: h.hit.t,
             prim: self.bvh.prim_indices[h.slot as usize],
             u: h.hit.u,
@@ -71,22 +118,35 @@ impl Geometry {
     }
 }
 
-/// Every primitive as a shape, in global primitive order.
-pub fn all_shapes(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef]) -> Vec<Shape> {
+/// Every primitive as a shape, in global primitive order; moving ones go to `moving`.
+pub fn all_shapes(
+    meshes: &[Mesh],
+    spheres: &[SceneSphere],
+    prims: &[PrimRef],
+    moving: &mut Vec<MovingShape>,
+) -> Vec<Shape> {
     prims
         .iter()
-        .map(|p| match *p {
-            PrimRef::Triangle { mesh, face } => {
-                let m = &meshes[mesh as usize];
-                let [a, b, c] = m.triangles[face as usize].map(|i| m.positions[i as usize]);
-                Shape::Triangle(Triangle::new(a, b, c))
-            }
-            PrimRef::Sphere(s) => {
-                let s = &spheres[s as usize];
-                Shape::Sphere(Sphere {
-                    center: s.center,
-                    radius: s.radius,
-                })
+        .map(|p| {
+            let (shape, motion) = match *p {
+                PrimRef::Triangle { mesh, face } => {
+                    let m = &meshes[mesh as usize];
+                    let o = m.motion.map_or(Vec3A::ZERO, |mo| mo.start);
+                    let [a, b, c] = m.triangles[face as usize].map(|i| m.positions[i as usize] + o);
+                    (Shape::Triangle(Triangle::new(a, b, c)), m.motion)
+                }
+                PrimRef::Sphere(s) => {
+                    let s = &spheres[s as usize];
+                    let o = s.motion.map_or(Vec3A::ZERO, |mo| mo.start);
+                    (Shape::Sphere(Sphere { center: s.center + o, radius: s.radius }), s.motion)
+                }
+            };
+            match motion {
+                Some(m) if m.end != m.start => {
+                    moving.push(MovingShape { shape, delta: m.end - m.start });
+                    Shape::Moving(moving.len() as u32 - 1)
+                }
+                _ => shape,
             }
         })
         .collect()

@@ -12,7 +12,7 @@ pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape};
 
 use crate::bvh::{BvhStats, TraversalStats};
-use crate::camera::{Camera, CameraDesc};
+use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
 use crate::light::Light;
 use crate::material::{Material, Texture};
@@ -35,6 +35,25 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Material of each triangle (index into [`Scene::materials`]).
     pub materials: Vec<u32>,
+    /// Linear motion during the exposure; positions are at rest (before the motion).
+    pub motion: Option<Motion>,
+}
+
+/// A linear translation over the shutter interval: `start` at time 0, `end` at time 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    /// Translation when the shutter opens.
+    pub start: Vec3A,
+    /// Translation when it closes.
+    pub end: Vec3A,
+}
+
+impl Motion {
+    /// The translation at shutter time `t`.
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3A {
+        self.start.lerp(self.end, t)
+    }
 }
 
 /// An analytic sphere with a material.
@@ -46,6 +65,8 @@ pub struct SceneSphere {
     pub radius: f32,
     /// Index into [`Scene::materials`].
     pub material: u32,
+    /// Linear motion during the exposure.
+    pub motion: Option<Motion>,
 }
 
 /// Which primitive a global primitive id names.
@@ -98,8 +119,10 @@ pub struct SurfaceInteraction {
 pub struct Scene {
     /// Display name.
     pub name: String,
-    /// The camera as described.
+    /// The camera as described (its pose when the shutter opens).
     pub camera: CameraDesc,
+    /// The camera's pose when the shutter closes, if it moves.
+    pub camera_end: Option<CameraDesc>,
     /// Triangle meshes.
     pub meshes: Vec<Mesh>,
     /// Spheres.
@@ -136,10 +159,8 @@ impl Scene {
             Some("obj") => (SceneDesc::for_obj(path), None),
             _ => (builtin::scene_desc(spec)?, None),
         };
-        let ctx = LoadContext {
-            base_dir: base.unwrap_or_else(|| PathBuf::from(".")),
-            assets: assets.map(Path::to_path_buf),
-        };
+        let ctx =
+            LoadContext { base_dir: base.unwrap_or_else(|| PathBuf::from(".")), assets: assets.map(Path::to_path_buf) };
         Scene::from_desc(&desc, &ctx)
     }
 
@@ -162,10 +183,7 @@ impl Scene {
     ) -> Scene {
         let mut prims = Vec::new();
         for (m, mesh) in meshes.iter().enumerate() {
-            prims.extend((0..mesh.triangles.len()).map(|f| PrimRef::Triangle {
-                mesh: m as u32,
-                face: f as u32,
-            }));
+            prims.extend((0..mesh.triangles.len()).map(|f| PrimRef::Triangle { mesh: m as u32, face: f as u32 }));
         }
         prims.extend((0..spheres.len()).map(|s| PrimRef::Sphere(s as u32)));
         let start = Instant::now();
@@ -175,6 +193,7 @@ impl Scene {
         Scene {
             name,
             camera,
+            camera_end: None,
             meshes,
             spheres,
             materials,
@@ -188,9 +207,14 @@ impl Scene {
         }
     }
 
-    /// The scene's camera.
+    /// The scene's camera (its pose when the shutter opens).
     pub fn camera(&self) -> Camera {
         Camera::from_desc(&self.camera)
+    }
+
+    /// The scene's camera over the exposure.
+    pub fn camera_motion(&self) -> CameraMotion {
+        CameraMotion { start: self.camera(), end: self.camera_end.as_ref().map(Camera::from_desc) }
     }
 
     /// Number of triangles.
@@ -218,7 +242,7 @@ impl Scene {
     /// Whether anything lies on `ray` within its interval.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.geometry.bvh.occluded(ray, &self.geometry.shapes[..])
+        self.geometry.bvh.occluded(ray, &self.geometry)
     }
 
     /// The material of primitive `prim`.
@@ -229,12 +253,14 @@ impl Scene {
         }
     }
 
-    /// The world-space corners of triangle `prim`, or `None` for a sphere.
+    /// The world-space corners of triangle `prim` when the shutter opens, or `None` for a
+    /// sphere.
     pub fn triangle_vertices(&self, prim: u32) -> Option<[Vec3A; 3]> {
         match self.prims[prim as usize] {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
-                Some(m.triangles[face as usize].map(|i| m.positions[i as usize]))
+                let o = m.motion.map_or(Vec3A::ZERO, |mo| mo.start);
+                Some(m.triangles[face as usize].map(|i| m.positions[i as usize] + o))
             }
             PrimRef::Sphere(_) => None,
         }
@@ -247,25 +273,20 @@ impl Scene {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
                 let [a, b, c] = m.triangles[face as usize].map(|i| i as usize);
-                let geo = (m.positions[b] - m.positions[a])
-                    .cross(m.positions[c] - m.positions[a])
-                    .normalize_or_zero();
+                let geo = (m.positions[b] - m.positions[a]).cross(m.positions[c] - m.positions[a]).normalize_or_zero();
                 let w = Vec3A::new(1.0 - hit.u - hit.v, hit.u, hit.v);
                 let shading = if settings.interpolate_normals && !m.normals.is_empty() {
                     (w.x * m.normals[a] + w.y * m.normals[b] + w.z * m.normals[c]).normalize_or(geo)
                 } else {
                     geo
                 };
-                let uv = if m.uvs.is_empty() {
-                    Vec2::ZERO
-                } else {
-                    w.x * m.uvs[a] + w.y * m.uvs[b] + w.z * m.uvs[c]
-                };
+                let uv = if m.uvs.is_empty() { Vec2::ZERO } else { w.x * m.uvs[a] + w.y * m.uvs[b] + w.z * m.uvs[c] };
                 (geo, shading, uv, m.materials[face as usize])
             }
             PrimRef::Sphere(s) => {
                 let s = &self.spheres[s as usize];
-                let n = ((point - s.center) / s.radius).normalize_or_zero();
+                let center = s.center + s.motion.map_or(Vec3A::ZERO, |m| m.at(ray.time));
+                let n = ((point - center) / s.radius).normalize_or_zero();
                 // Spherical coordinates, for textured spheres.
                 let uv = Vec2::new(
                     0.5 + n.z.atan2(n.x) / std::f32::consts::TAU,
@@ -283,14 +304,7 @@ impl Scene {
             (Some(t), true) => self.textures[t].sample(uv, settings.texture_filter),
             _ => mat.kd,
         };
-        SurfaceInteraction {
-            point,
-            geo_normal,
-            shading_normal,
-            uv,
-            material,
-            kd,
-        }
+        SurfaceInteraction { point, geo_normal, shading_normal, uv, material, kd }
     }
 
     /// Fraction of light that passes from a surface point along `ray` (a shadow ray): zero
@@ -319,13 +333,7 @@ impl Scene {
             }
             let next = Ray::spawn(si.point, si.geo_normal, r.dir, r.time);
             let travelled = (next.origin - r.origin).dot(r.dir);
-            r = Ray {
-                t: crate::ray::Interval {
-                    min: 0.0,
-                    max: r.t.max - travelled,
-                },
-                ..next
-            };
+            r = Ray { t: crate::ray::Interval { min: 0.0, max: r.t.max - travelled }, ..next };
         }
         Color::ZERO
     }

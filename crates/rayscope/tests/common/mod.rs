@@ -61,21 +61,14 @@ pub fn assets(test: &str) -> Option<PathBuf> {
 /// Load a built-in scene, with the asset folder when it needs one.
 pub fn builtin_scene(name: &str, assets: Option<&PathBuf>) -> Scene {
     let desc = builtin::scene_desc(name).unwrap();
-    let ctx = LoadContext {
-        assets: assets.cloned(),
-        ..LoadContext::default()
-    };
+    let ctx = LoadContext { assets: assets.cloned(), ..LoadContext::default() };
     Scene::from_desc(&desc, &ctx).unwrap()
 }
 
 /// A scene of one inline triangle mesh plus extra description.
 pub fn inline_scene(vertices: Vec<Vec3>, faces: Vec<[u32; 3]>) -> SceneDesc {
     SceneDesc {
-        meshes: vec![MeshDesc {
-            vertices: Some(vertices),
-            faces: Some(faces),
-            ..MeshDesc::default()
-        }],
+        meshes: vec![MeshDesc { vertices: Some(vertices), faces: Some(faces), ..MeshDesc::default() }],
         ..SceneDesc::default()
     }
 }

@@ -1,0 +1,298 @@
+//! Deterministic sampling: every random number a pixel sample uses is a function of the seed,
+//! the pixel and the sample index alone, so images do not depend on threads, tiles or the
+//! order in which pixels are rendered, and the debugger can replay any sample exactly.
+//!
+//! - Sub-pixel positions: with one sample, the pixel centre (the course's image); with a
+//!   known sample count `N` that is a square `m x m`, a jittered
+//!   `m x m` grid whose cells are visited in a per-pixel random order (any prefix is still
+//!   unbiased); otherwise the `(0,2)`-sequence (Sobol' dimensions 0 and 1) randomised per pixel
+//!   by a digital shift, whose first `2^k` points are stratified in every elementary interval.
+//! - Shutter times: a per-pixel rotation of the base-3 radical inverse of the sample index.
+//! - Everything else (light points, glossy directions): a PCG32 stream per pixel sample, used
+//!   through stratified helpers ([`stratum_2d`], [`grid_dims`]).
+
+use crate::math::Vec2;
+
+/// Mix a 64-bit value (SplitMix64's finaliser): a strong, cheap hash for seeding.
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Hash several words into one.
+#[inline]
+pub fn hash(words: &[u64]) -> u64 {
+    words.iter().fold(0x51_7CC1_B727_220A, |h, &w| mix64(h ^ w.wrapping_add(0x9E37_79B9_7F4A_7C15)))
+}
+
+/// PCG32 (O'Neill): small state, good statistics, fast.
+#[derive(Clone, Debug)]
+pub struct Pcg32 {
+    state: u64,
+    inc: u64,
+}
+
+impl Pcg32 {
+    /// A generator for `seed` on stream `stream`.
+    pub fn new(seed: u64, stream: u64) -> Pcg32 {
+        let mut r = Pcg32 { state: 0, inc: (stream << 1) | 1 };
+        r.next_u32();
+        r.state = r.state.wrapping_add(seed);
+        r.next_u32();
+        r
+    }
+
+    /// The next 32 random bits.
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in `[0, 1)`.
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        // 24 random bits: every value is exactly representable and below 1.
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    /// Two uniform numbers in `[0, 1)`.
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next_f32(), self.next_f32())
+    }
+}
+
+/// Kensler's hash-based permutation of `0..n` ("Correlated Multi-Jittered Sampling", 2013):
+/// element `i` of a pseudo-random permutation chosen by `key`, without storing it.
+pub fn permute(mut i: u32, n: u32, key: u32) -> u32 {
+    debug_assert!(i < n);
+    if n <= 1 {
+        return 0;
+    }
+    let mut w = n - 1;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= key;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= key >> 16;
+        i ^= (i & w) >> 4;
+        i ^= key >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= key >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | key >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < n {
+            return (i.wrapping_add(key)) % n;
+        }
+    }
+}
+
+/// Van der Corput (base 2) radical inverse of `i`, as 32 bits.
+#[inline]
+fn van_der_corput(i: u32) -> u32 {
+    i.reverse_bits()
+}
+
+/// Sobol' dimension 1 (the second coordinate of the (0,2)-sequence), as 32 bits.
+#[inline]
+fn sobol_dim1(mut i: u32) -> u32 {
+    let mut v: u32 = 1 << 31;
+    let mut r = 0;
+    while i != 0 {
+        if i & 1 != 0 {
+            r ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    r
+}
+
+#[inline]
+fn bits_to_unit(b: u32) -> f32 {
+    (b >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// Base-3 radical inverse of `i`, in `[0, 1)`.
+fn radical_inverse_3(mut i: u32) -> f32 {
+    let (mut r, mut f) = (0.0f64, 1.0f64 / 3.0);
+    while i > 0 {
+        r += (i % 3) as f64 * f;
+        i /= 3;
+        f /= 3.0;
+    }
+    r as f32
+}
+
+/// The integer square root of `n` when `n` is a perfect square.
+pub fn exact_sqrt(n: u32) -> Option<u32> {
+    let m = (n as f64).sqrt().round() as u32;
+    (m * m == n).then_some(m)
+}
+
+/// A grid `a x b = n` as square as possible (`a <= b`), for stratifying `n` 2D samples.
+pub fn grid_dims(n: u32) -> (u32, u32) {
+    let mut a = (n as f64).sqrt().floor() as u32;
+    while a > 1 && !n.is_multiple_of(a) {
+        a -= 1;
+    }
+    let a = a.max(1);
+    (a, n.max(1) / a)
+}
+
+/// Sample `i` of `n` stratified over `[0,1)^2`: a jittered cell of the [`grid_dims`] grid.
+#[inline]
+pub fn stratum_2d(i: u32, n: u32, jitter: Vec2) -> Vec2 {
+    let (a, b) = grid_dims(n);
+    let (x, y) = (i % a, (i / a) % b);
+    Vec2::new((x as f32 + jitter.x) / a as f32, (y as f32 + jitter.y) / b as f32)
+}
+
+/// Sample `i` of `n` stratified over `[0,1)`.
+#[inline]
+pub fn stratum_1d(i: u32, n: u32, jitter: f32) -> f32 {
+    (i as f32 + jitter) / n.max(1) as f32
+}
+
+/// The random numbers of one pixel sample.
+#[derive(Clone, Debug)]
+pub struct PixelSampler {
+    /// Position within the pixel, in `[0,1)^2`.
+    pub pixel_offset: Vec2,
+    /// Shutter time, in `[0, 1)`.
+    pub time: f32,
+    rng: Pcg32,
+}
+
+impl PixelSampler {
+    /// The sampler of sample `index` of pixel `pixel` (a linear pixel index). `planned` is the
+    /// number of samples the pixel will get if known (it selects the jittered grid for
+    /// squares), or 0 for open-ended progressive rendering.
+    pub fn new(seed: u64, pixel: u32, index: u32, planned: u32) -> PixelSampler {
+        let pixel_key = hash(&[seed, pixel as u64]);
+        let rng = Pcg32::new(hash(&[pixel_key, index as u64]), pixel_key);
+        let mut cell_rng = Pcg32::new(hash(&[pixel_key, index as u64, 1]), pixel_key ^ 1);
+        let pixel_offset = match exact_sqrt(planned) {
+            // One planned sample: the pixel centre, as the course traced it.
+            Some(1) if index == 0 => Vec2::splat(0.5),
+            Some(m) if m > 1 && index < planned => {
+                let cell = permute(index, planned, pixel_key as u32);
+                Vec2::new((cell % m) as f32 + cell_rng.next_f32(), (cell / m) as f32 + cell_rng.next_f32()) / m as f32
+            }
+            _ => {
+                let shift = pixel_key;
+                Vec2::new(
+                    bits_to_unit(van_der_corput(index) ^ (shift as u32)),
+                    bits_to_unit(sobol_dim1(index) ^ ((shift >> 32) as u32)),
+                )
+            }
+        };
+        let rotation = bits_to_unit((pixel_key >> 16) as u32);
+        let time = (radical_inverse_3(index) + rotation).fract();
+        PixelSampler { pixel_offset, time, rng }
+    }
+
+    /// The next uniform number in `[0, 1)`.
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        self.rng.next_f32()
+    }
+
+    /// The next two uniform numbers.
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        self.rng.next_2d()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permute_is_a_permutation() {
+        for n in [1, 2, 7, 16, 100] {
+            let mut seen: Vec<u32> = (0..n).map(|i| permute(i, n, 12345)).collect();
+            seen.sort();
+            assert_eq!(seen, (0..n).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn square_counts_fill_every_grid_cell() {
+        let n = 16;
+        let mut cells: Vec<(u32, u32)> = (0..n)
+            .map(|i| {
+                let o = PixelSampler::new(3, 77, i, n).pixel_offset;
+                ((o.x * 4.0) as u32, (o.y * 4.0) as u32)
+            })
+            .collect();
+        cells.sort();
+        cells.dedup();
+        assert_eq!(cells.len(), 16);
+    }
+
+    #[test]
+    fn open_ended_samples_are_stratified_at_powers_of_two() {
+        // The first 64 points of the shifted (0,2)-sequence: one per cell of an 8x8 grid, and
+        // one per 64 x 1 strip.
+        let pts: Vec<Vec2> = (0..64).map(|i| PixelSampler::new(9, 5, i, 0).pixel_offset).collect();
+        let mut grid: Vec<u32> = pts.iter().map(|p| (p.x * 8.0) as u32 * 8 + (p.y * 8.0) as u32).collect();
+        grid.sort();
+        grid.dedup();
+        assert_eq!(grid.len(), 64);
+        let mut strips: Vec<u32> = pts.iter().map(|p| (p.x * 64.0) as u32).collect();
+        strips.sort();
+        strips.dedup();
+        assert_eq!(strips.len(), 64);
+    }
+
+    #[test]
+    fn same_inputs_same_numbers() {
+        let mut a = PixelSampler::new(1, 2, 3, 4);
+        let mut b = PixelSampler::new(1, 2, 3, 4);
+        assert_eq!(a.pixel_offset, b.pixel_offset);
+        assert_eq!(a.next_2d(), b.next_2d());
+        let c = PixelSampler::new(1, 2, 4, 4);
+        assert_ne!(a.pixel_offset, c.pixel_offset);
+    }
+
+    #[test]
+    fn grid_dims_are_near_square() {
+        assert_eq!(grid_dims(50), (5, 10));
+        assert_eq!(grid_dims(49), (7, 7));
+        assert_eq!(grid_dims(7), (1, 7));
+        assert_eq!(grid_dims(1), (1, 1));
+    }
+
+    #[test]
+    fn times_cover_the_shutter() {
+        // The first 27 base-3 radical inverses are the lattice i/27; rotated, they still put
+        // one time in each 1/27 of the shutter.
+        let t: Vec<f32> = (0..27).map(|i| PixelSampler::new(0, 1, i, 0).time).collect();
+        assert!(t.iter().all(|v| (0.0..1.0).contains(v)));
+        let mut bins: Vec<u32> = t.iter().map(|v| (v * 27.0) as u32).collect();
+        bins.sort();
+        bins.dedup();
+        assert!(bins.len() >= 26, "{bins:?}");
+    }
+}
