@@ -284,6 +284,12 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if args.aov.is_some() && !format.is_float() {
         bail!("{}: AOVs are float data; write them to .exr or .pfm", args.output.display());
     }
+    if args.time_limit.is_some_and(|t| !t.is_finite() || t < 0.0) {
+        bail!("--time-limit must be a number of seconds, at least 0");
+    }
+    if args.target_spp.is_some_and(|t| t == 0 || t > rayscope::render::MAX_SAMPLES) {
+        bail!("--target-spp must be 1 to {}", rayscope::render::MAX_SAMPLES);
+    }
     let (scene, settings) = load(&args.scene)?;
     let pool = thread_pool(args.scene.threads)?;
     let total = settings.width as u64 * settings.height as u64;
@@ -338,16 +344,13 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         bar.set_position(0);
         let start = std::time::Instant::now();
         let mut prog = Progressive::new(settings.clone(), ImagingMode::Dynamic, args.target_spp);
-        let camera = scene.camera_motion();
-        let mut rays = rayscope::integrator::RayCounts::default();
-        while !prog.is_done() && !cancel.load(Ordering::Relaxed) {
-            if args.time_limit.is_some_and(|t| start.elapsed().as_secs_f64() >= t) {
-                break;
-            }
-            let info = pool.install(|| prog.render_frame(&scene, &camera, &cancel, &|_| {}));
-            rays.add(info.rays);
-            bar.set_position(info.samples_per_pixel as u64);
-        }
+        let limit = args.time_limit.map(std::time::Duration::from_secs_f64);
+        let rays = pool.install(|| {
+            prog.run(&scene, &scene.camera_motion(), limit, &cancel, |film, _| {
+                bar.set_position(film.sample_range().0 as u64);
+                std::ops::ControlFlow::Continue(())
+            })
+        });
         (prog.film().clone(), rays, start.elapsed())
     } else {
         let out = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));

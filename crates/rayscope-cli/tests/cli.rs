@@ -195,6 +195,13 @@ fn sampling_flags_are_checked() {
     fails_with(d, &["render", "-o", "o.png", "--light-samples", "9999999"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.png", "--target-spp", "4"], &["--progressive"]);
     fails_with(d, &["render", "-o", "o.png", "--camera-end", "1,2"], &["RX,RY,RZ"]);
+    fails_with(d, &["render", "-o", "o.png", "--progressive", "--time-limit=-1"], &["--time-limit"]);
+    fails_with(d, &["render", "-o", "o.png", "--progressive", "--target-spp", "0"], &["--target-spp"]);
+    let o = rayscope(
+        d,
+        &["render", "-o", "t.png", "--progressive", "--time-limit", "0.2", "--width", "16", "--height", "16"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = rayscope(
         d,
         &["render", "-o", "blur.png", "--camera-end", "20,40,0", "--spp", "4", "--width", "16", "--height", "16"],

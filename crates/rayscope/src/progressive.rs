@@ -1,7 +1,8 @@
 //! Progressive rendering: frames of samples accumulated into a film, shared by the CLI and the
 //! viewer. It serves the course's three imaging modes.
 
-use std::sync::atomic::AtomicBool;
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::camera::CameraMotion;
@@ -163,5 +164,32 @@ impl Progressive {
             elapsed: start.elapsed(),
             complete,
         }
+    }
+
+    /// Render frames until the render is done ([`Progressive::is_done`]), `time_limit` has
+    /// passed (checked between frames), `cancel` is set, or `on_frame` breaks. `on_frame` sees
+    /// the film after every frame: the CLI's progress bar and the viewer's display both hang
+    /// here. Returns the rays cast.
+    pub fn run(
+        &mut self,
+        scene: &Scene,
+        camera: &CameraMotion,
+        time_limit: Option<Duration>,
+        cancel: &AtomicBool,
+        mut on_frame: impl FnMut(&Film, &FrameInfo) -> ControlFlow<()>,
+    ) -> RayCounts {
+        let start = Instant::now();
+        let mut rays = RayCounts::default();
+        while !self.is_done() && !cancel.load(Ordering::Relaxed) {
+            if time_limit.is_some_and(|t| start.elapsed() >= t) {
+                break;
+            }
+            let info = self.render_frame(scene, camera, cancel, &|_| {});
+            rays.add(info.rays);
+            if on_frame(&self.film, &info).is_break() {
+                break;
+            }
+        }
+        rays
     }
 }
