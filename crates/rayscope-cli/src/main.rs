@@ -40,6 +40,39 @@ enum Command {
     },
     /// Trace one pixel and print its ray tree as JSON.
     Debug(DebugArgs),
+    /// Open the viewer and visual debugger.
+    #[cfg(feature = "viewer")]
+    View(ViewArgs),
+}
+
+#[cfg(feature = "viewer")]
+#[derive(Args)]
+struct ViewArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Save a screenshot of the whole window here after --frames frames, and quit.
+    #[arg(long, value_name = "FILE")]
+    screenshot: Option<PathBuf>,
+    /// Debug this pixel (X,Y from the top-left) from the start.
+    #[arg(long, value_parser = parse_pixel, value_name = "X,Y")]
+    debug_pixel: Option<(u32, u32)>,
+    /// Show this BVH level from the start.
+    #[arg(long, value_name = "L")]
+    bvh_level: Option<u32>,
+    /// Ray-traced frames to render before the screenshot.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    frames: u32,
+    /// The view to start in.
+    #[arg(long, value_enum, default_value = "raster")]
+    view: ViewArg,
+}
+
+#[cfg(feature = "viewer")]
+#[derive(Clone, Copy, ValueEnum)]
+enum ViewArg {
+    Raster,
+    Traced,
+    HeatMap,
 }
 
 #[derive(Args)]
@@ -214,6 +247,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => cmd_render(args),
         Command::Scenes { export } => cmd_scenes(export),
         Command::Debug(args) => cmd_debug(args),
+        #[cfg(feature = "viewer")]
+        Command::View(args) => cmd_view(args),
     }
 }
 
@@ -327,7 +362,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             AovArg::NodesVisited => Aov::NodesVisited,
         };
         let start = std::time::Instant::now();
-        let img = pool.install(|| render_aov(&scene, &settings, aov, &progress));
+        let img = pool.install(|| render_aov(&scene, &settings, &scene.camera(), aov, &progress));
         bar.finish_and_clear();
         write_image(&img, &args.output, encoding)?;
         eprintln!("{}", summary(&format!("AOV in {:.1} ms", start.elapsed().as_secs_f64() * 1e3)));
@@ -370,6 +405,28 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+#[cfg(feature = "viewer")]
+fn cmd_view(args: ViewArgs) -> Result<()> {
+    use rayscope_viewer::state::ViewKind;
+    // Check the scene and flags here, so that mistakes are reported on the terminal.
+    let (_, settings) = load(&args.scene)?;
+    let view = match args.view {
+        ViewArg::Raster => ViewKind::Raster,
+        ViewArg::Traced => ViewKind::RayTraced,
+        ViewArg::HeatMap => ViewKind::HeatMap,
+    };
+    rayscope_viewer::run(rayscope_viewer::ViewerOptions {
+        scene: args.scene.scene.clone(),
+        assets: args.scene.assets.clone(),
+        settings: Some(settings),
+        view: Some(view),
+        debug_pixel: args.debug_pixel,
+        bvh_level: args.bvh_level,
+        screenshot: args.screenshot,
+        frames: args.frames,
+    })
+}
+
 fn samples_note(film: &Film) -> String {
     match film.sample_range() {
         (a, b) if a == b => format!("{a} spp"),
@@ -400,7 +457,7 @@ fn cmd_debug(args: DebugArgs) -> Result<()> {
     if args.sample >= settings.spp {
         bail!("sample {} does not exist: the pixel has {} samples (--spp)", args.sample, settings.spp);
     }
-    let color = trace_pixel(&scene, &settings, x, y, args.sample, &mut tree);
+    let color = trace_pixel(&scene, &settings, &scene.camera_motion(), x, y, args.sample, &mut tree);
     let json = serde_json::json!({
         "scene": scene.name,
         "pixel": [x, y],

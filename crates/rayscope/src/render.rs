@@ -300,11 +300,12 @@ pub fn render_cancellable(
     RenderOutput { film, rays, elapsed: start.elapsed(), complete }
 }
 
-/// Trace sample `k` of pixel `(x, y)` alone, exactly as [`render`] does (with `planned =
-/// settings.spp`), reporting every ray to `rec`. Returns the sample's colour.
+/// Trace sample `k` of pixel `(x, y)` alone through `camera`, exactly as [`render`] does (with
+/// `planned = settings.spp`), reporting every ray to `rec`. Returns the sample's colour.
 pub fn trace_pixel<R: RayRecorder>(
     scene: &Scene,
     settings: &RenderSettings,
+    camera: &CameraMotion,
     x: u32,
     y: u32,
     k: u32,
@@ -312,7 +313,7 @@ pub fn trace_pixel<R: RayRecorder>(
 ) -> Color {
     let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
-    sample_pixel(&integrator, &scene.camera_motion(), x, y, k, pass, rec).0
+    sample_pixel(&integrator, camera, x, y, k, pass, rec).0
 }
 
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
@@ -343,14 +344,14 @@ impl Aov {
     }
 }
 
-/// Render one AOV of the camera rays' first hits.
+/// Render one AOV of the first hits of `camera`'s rays through the pixel centres.
 pub fn render_aov(
     scene: &Scene,
     settings: &RenderSettings,
+    camera: &Camera,
     aov: Aov,
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> FloatImage {
-    let camera = scene.camera();
     let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x, y| {
         let ray = camera.pixel_ray(x, y, settings.width, settings.height);
         let mut stats = TraversalStats::default();

@@ -136,18 +136,18 @@ fn transparency_blends_and_tints_shadows() {
 fn aovs_report_first_hits() {
     let scene = Scene::from_desc(&lit_plane(), &LoadContext::default()).unwrap();
     let s = settings();
-    let depth = render_aov(&scene, &s, Aov::Depth, &|_| {});
+    let depth = render_aov(&scene, &s, &scene.camera(), Aov::Depth, &|_| {});
     assert!((depth.pixel(2, 2)[0] - 3.0).abs() < 1e-5);
-    let normal = render_aov(&scene, &s, Aov::Normal, &|_| {});
+    let normal = render_aov(&scene, &s, &scene.camera(), Aov::Normal, &|_| {});
     assert_eq!(normal.pixel(2, 2), &[0.0, 0.0, -1.0]);
-    let albedo = render_aov(&scene, &s, Aov::Albedo, &|_| {});
+    let albedo = render_aov(&scene, &s, &scene.camera(), Aov::Albedo, &|_| {});
     assert_eq!(albedo.pixel(2, 2), &KD.to_array());
     let mut empty = lit_plane();
     empty.meshes.clear();
     let scene = Scene::from_desc(&empty, &LoadContext::default()).unwrap();
-    assert!(render_aov(&scene, &s, Aov::Depth, &|_| {}).pixel(0, 0)[0].is_nan());
-    assert_eq!(render_aov(&scene, &s, Aov::PrimId, &|_| {}).pixel(0, 0)[0], -1.0);
-    assert!(render_aov(&scene, &s, Aov::Position, &|_| {}).pixel(4, 4).iter().all(|v| v.is_nan()));
+    assert!(render_aov(&scene, &s, &scene.camera(), Aov::Depth, &|_| {}).pixel(0, 0)[0].is_nan());
+    assert_eq!(render_aov(&scene, &s, &scene.camera(), Aov::PrimId, &|_| {}).pixel(0, 0)[0], -1.0);
+    assert!(render_aov(&scene, &s, &scene.camera(), Aov::Position, &|_| {}).pixel(4, 4).iter().all(|v| v.is_nan()));
 }
 
 /// A closed, curved mesh: an icosahedron subdivided and pushed onto the unit sphere.

@@ -13,7 +13,7 @@ pub mod validate;
 
 pub use build::BuildParams;
 pub use node::BvhNode;
-pub use stats::{BvhStats, LevelBox, TraversalStats};
+pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
 
 use crate::geometry::PrimHit;

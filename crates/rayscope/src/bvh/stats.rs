@@ -12,6 +12,47 @@ pub struct TraversalStats {
     pub prims_tested: u32,
 }
 
+/// Watches a closest-hit traversal. Every method defaults to nothing.
+pub trait TraversalObserver {
+    /// `n` node boxes were tested against the ray.
+    #[inline(always)]
+    fn boxes_tested(&mut self, _n: u32) {}
+    /// A primitive was intersected.
+    #[inline(always)]
+    fn prim_tested(&mut self) {}
+    /// The traversal entered node `index` (its box was hit and it was processed).
+    #[inline(always)]
+    fn entered(&mut self, _index: u32) {}
+}
+
+impl TraversalObserver for TraversalStats {
+    #[inline(always)]
+    fn boxes_tested(&mut self, n: u32) {
+        self.nodes_visited += n;
+    }
+    #[inline(always)]
+    fn prim_tested(&mut self) {
+        self.prims_tested += 1;
+    }
+}
+
+/// Observes nothing: traversal at full speed.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoObserver;
+
+impl TraversalObserver for NoObserver {}
+
+/// Records the nodes a traversal entered, in order: what the debugger's "visited nodes" view
+/// draws.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct NodeLog(pub Vec<u32>);
+
+impl TraversalObserver for NodeLog {
+    fn entered(&mut self, index: u32) {
+        self.0.push(index);
+    }
+}
+
 /// Summary of a built tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BvhStats {

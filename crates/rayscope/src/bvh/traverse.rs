@@ -4,7 +4,7 @@
 //! test a node's two children together and descend into the nearer first. Closest-hit shrinks
 //! the ray's interval at every hit so farther boxes are pruned; any-hit stops at the first hit.
 
-use super::{Bvh, BvhHit, MAX_DEPTH, Primitives, TraversalStats};
+use super::{Bvh, BvhHit, MAX_DEPTH, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::ray::Ray;
 
@@ -12,20 +12,22 @@ impl Bvh {
     /// The closest hit along `ray` within its interval.
     #[inline]
     pub fn intersect<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> Option<BvhHit> {
-        self.intersect_counted(ray, prims, &mut TraversalStats::default())
+        self.intersect_counted(ray, prims, &mut NoObserver)
     }
 
-    /// [`Bvh::intersect`], counting visited nodes and tested primitives into `stats`.
-    pub fn intersect_counted<P: Primitives + ?Sized>(
+    /// [`Bvh::intersect`], reporting the traversal to `stats` (counts of tested boxes and
+    /// primitives, or the nodes entered: see [`TraversalObserver`]). Observers that do nothing
+    /// compile away.
+    pub fn intersect_counted<P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         ray: &Ray,
         prims: &P,
-        stats: &mut TraversalStats,
+        stats: &mut O,
     ) -> Option<BvhHit> {
         let root = self.nodes.first()?;
         let inv = safe_inv_dir(ray.dir);
         let (t_min, mut t_max) = (ray.t.min, ray.t.max);
-        stats.nodes_visited += 1;
+        stats.boxes_tested(1);
         if root.bounds().hit_distance(ray.origin, inv, t_min, t_max) == f32::INFINITY {
             return None;
         }
@@ -37,9 +39,10 @@ impl Bvh {
         let mut index = 0usize;
         loop {
             let node = &self.nodes[index];
+            stats.entered(index as u32);
             if node.is_leaf() {
                 for slot in node.start..node.start + node.count {
-                    stats.prims_tested += 1;
+                    stats.prim_tested();
                     if let Some(hit) = prims.intersect(slot, ray, t_min, t_max) {
                         t_max = hit.t;
                         best = Some(BvhHit { slot, hit });
@@ -47,7 +50,7 @@ impl Bvh {
                 }
             } else {
                 let (a, b) = (index + 1, node.start as usize);
-                stats.nodes_visited += 2;
+                stats.boxes_tested(2);
                 let da = self.nodes[a].bounds().hit_distance(ray.origin, inv, t_min, t_max);
                 let db = self.nodes[b].bounds().hit_distance(ray.origin, inv, t_min, t_max);
                 let (near, far, dn, df) = if da <= db { (a, b, da, db) } else { (b, a, db, da) };

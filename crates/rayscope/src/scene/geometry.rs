@@ -1,7 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, PrimRef, SceneSphere};
-use crate::bvh::{BuildParams, Bvh, Primitives, TraversalStats};
+use crate::bvh::{BuildParams, Bvh, Primitives, TraversalObserver};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -108,7 +108,7 @@ impl Geometry {
 
     /// Closest hit, with its global primitive id.
     #[inline]
-    pub fn intersect(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
+    pub fn intersect<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         self.bvh.intersect_counted(ray, self, stats).map(|h| Hit {
             t: h.hit.t,
             prim: self.bvh.prim_indices[h.slot as usize],

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape};
 
-use crate::bvh::{BvhStats, TraversalStats};
+use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
 use crate::light::Light;
@@ -230,13 +230,20 @@ impl Scene {
     /// The closest hit along `ray`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.geometry.intersect(ray, &mut TraversalStats::default())
+        self.geometry.intersect(ray, &mut NoObserver)
     }
 
-    /// [`Scene::intersect`], counting traversal work into `stats`.
+    /// [`Scene::intersect`], reporting the traversal to `stats`.
     #[inline]
-    pub fn intersect_counted(&self, ray: &Ray, stats: &mut TraversalStats) -> Option<Hit> {
+    pub fn intersect_counted<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         self.geometry.intersect(ray, stats)
+    }
+
+    /// The BVH nodes a closest-hit query for `ray` enters, in traversal order.
+    pub fn visited_nodes(&self, ray: &Ray) -> Vec<u32> {
+        let mut log = NodeLog::default();
+        self.geometry.intersect(ray, &mut log);
+        log.0
     }
 
     /// Whether anything lies on `ray` within its interval.

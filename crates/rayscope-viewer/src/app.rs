@@ -1,0 +1,511 @@
+//! The eframe application: panels, the viewport and its mouse controls, the worker, and the
+//! headless screenshot mode.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use egui::{Color32, Key, PointerButton, Pos2, Rect, Sense, Stroke, Vec2};
+use rayscope::camera::CameraMotion;
+use rayscope::film::FloatImage;
+use rayscope::filter::PixelFilter;
+use rayscope::material::TextureFilter;
+use rayscope::output::{Encoding, write_image};
+use rayscope::render::RenderSettings;
+use rayscope::scene::builtin;
+
+use crate::files::{BrowserAction, FileBrowser};
+use crate::preview::Preview;
+use crate::state::{ModeChoice, ViewKind, ViewerState};
+use crate::worker::{FrameImage, RenderJob, Worker};
+
+/// How the viewer starts.
+#[derive(Clone, Debug, Default)]
+pub struct ViewerOptions {
+    /// Built-in scene name, `.toml` or `.obj` file.
+    pub scene: String,
+    /// Asset folder for scenes that need the course's files.
+    pub assets: Option<PathBuf>,
+    /// Render settings to start with (default: the scene's).
+    pub settings: Option<RenderSettings>,
+    /// Start in this view.
+    pub view: Option<ViewKind>,
+    /// Debug this pixel from the start.
+    pub debug_pixel: Option<(u32, u32)>,
+    /// Show this BVH level from the start.
+    pub bvh_level: Option<u32>,
+    /// Headless use: after `frames` ray-traced frames, save a screenshot of the window here
+    /// and quit.
+    pub screenshot: Option<PathBuf>,
+    /// Frames to render before the screenshot.
+    pub frames: u32,
+}
+
+/// Open the viewer window; returns when it closes (or, with a screenshot, once it is saved).
+pub fn run(opts: ViewerOptions) -> anyhow::Result<()> {
+    let outcome: Arc<Mutex<Option<Result<(), String>>>> = Arc::new(Mutex::new(None));
+    let out = outcome.clone();
+    let native = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default().with_inner_size([1440.0, 900.0]).with_title("rayscope"),
+        renderer: eframe::Renderer::Wgpu,
+        ..Default::default()
+    };
+    let headless = opts.screenshot.is_some();
+    eframe::run_native(
+        "rayscope",
+        native,
+        Box::new(move |cc| {
+            let mut app = RayscopeApp::new(cc, opts);
+            app.outcome = out;
+            Ok(Box::new(app))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("the viewer window failed: {e}"))?;
+    match outcome.lock().unwrap().take() {
+        Some(Err(e)) => anyhow::bail!(e),
+        None if headless => anyhow::bail!("the viewer closed before the screenshot was taken"),
+        _ => Ok(()),
+    }
+}
+
+struct Headless {
+    path: PathBuf,
+    frames: u32,
+    requested: bool,
+    saved: Arc<Mutex<Option<Result<(), String>>>>,
+    started: Instant,
+}
+
+/// The viewer application.
+pub struct RayscopeApp {
+    /// Everything the viewer shows and edits.
+    pub state: ViewerState,
+    worker: Worker,
+    preview: Option<Preview>,
+    traced: Option<egui::TextureHandle>,
+    last_frame: Option<FrameImage>,
+    last_job: Option<(u64, CameraMotion, bool, u32, u32)>,
+    headless: Option<Headless>,
+    outcome: Arc<Mutex<Option<Result<(), String>>>>,
+    browser: Option<FileBrowser>,
+    save_path: String,
+    status: String,
+    /// The rectangle of the viewport image in the last frame (points).
+    pub image_rect: Option<Rect>,
+}
+
+impl RayscopeApp {
+    /// Create the app for `cc` with `opts`.
+    pub fn new(cc: &eframe::CreationContext<'_>, opts: ViewerOptions) -> RayscopeApp {
+        let spec = if opts.scene.is_empty() { builtin::DEFAULT_SCENE.to_string() } else { opts.scene.clone() };
+        let mut state = ViewerState::new(&spec, opts.assets.clone());
+        if let Some(s) = opts.settings.clone() {
+            state.set_settings(s);
+        }
+        if let Some(v) = opts.view {
+            state.view = v;
+        }
+        state.bvh_level = opts.bvh_level.map(|l| l.min(state.bvh_levels()));
+        if let Some((x, y)) = opts.debug_pixel {
+            let (x, y) = (x.min(state.settings.width - 1), y.min(state.settings.height - 1));
+            state.select_pixel(x, y);
+        }
+        let ctx = cc.egui_ctx.clone();
+        let worker = Worker::new(move || ctx.request_repaint());
+        let preview = cc.wgpu_render_state.as_ref().map(|rs| Preview::new(&rs.device));
+        let headless = opts.screenshot.clone().map(|path| Headless {
+            path,
+            frames: opts.frames.max(1),
+            requested: false,
+            saved: Arc::new(Mutex::new(None)),
+            started: Instant::now(),
+        });
+        RayscopeApp {
+            state,
+            worker,
+            preview,
+            traced: None,
+            last_frame: None,
+            last_job: None,
+            headless,
+            outcome: Arc::new(Mutex::new(None)),
+            browser: None,
+            save_path: "rayscope.png".into(),
+            status: String::new(),
+            image_rect: None,
+        }
+    }
+
+    /// The newest ray-traced frame shown.
+    pub fn last_frame(&self) -> Option<&FrameImage> {
+        self.last_frame.as_ref()
+    }
+
+    /// Frames the worker has delivered.
+    pub fn frames_delivered(&self) -> u64 {
+        self.worker.frames_posted()
+    }
+
+    fn poll_worker(&mut self, ctx: &egui::Context) {
+        if let Some(f) = self.worker.take_frame()
+            && f.generation == self.state.generation
+        {
+            let img = egui::ColorImage::from_rgba_unmultiplied([f.width as usize, f.height as usize], &f.rgba);
+            match &mut self.traced {
+                Some(t) => t.set(img, egui::TextureOptions::NEAREST),
+                None => self.traced = Some(ctx.load_texture("rayscope traced", img, egui::TextureOptions::NEAREST)),
+            }
+            self.last_frame = Some(f);
+        }
+    }
+
+    fn submit_job(&mut self) {
+        let camera = self.state.camera();
+        let heat = self.state.view == ViewKind::HeatMap;
+        let key = (self.state.generation, camera, heat, self.state.max_spp, self.state.exposure_frames);
+        if self.last_job == Some(key) {
+            return;
+        }
+        self.last_job = Some(key);
+        self.worker.submit(RenderJob {
+            scene: self.state.scene.clone(),
+            settings: self.state.settings.clone(),
+            mode: self.state.imaging_mode(),
+            camera,
+            heat_map: heat,
+            max_spp: self.state.max_spp,
+            generation: self.state.generation,
+        });
+    }
+
+    fn top_bar(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            ui.strong("rayscope");
+            ui.separator();
+            let mut pick: Option<String> = None;
+            egui::ComboBox::from_label("Scene").selected_text(self.state.scene_spec.clone()).show_ui(ui, |ui| {
+                for b in builtin::BUILTINS {
+                    let r = ui.selectable_label(self.state.scene_spec == b.name, b.name).on_hover_text(b.description);
+                    if r.clicked() {
+                        pick = Some(b.name.to_string());
+                    }
+                }
+            });
+            if ui.button("Open scene/OBJ…").on_hover_text("Open a .toml scene file or an .obj mesh").clicked() {
+                let dir = std::env::current_dir().unwrap_or_default();
+                self.browser = Some(FileBrowser::new(dir));
+            }
+            if ui.button("Reload").on_hover_text("Load the current scene again from its files").clicked() {
+                pick = Some(self.state.scene_spec.clone());
+            }
+            if let Some(spec) = pick {
+                self.state.load_scene(&spec);
+            }
+            if let Some(e) = &self.state.error {
+                ui.colored_label(Color32::LIGHT_RED, format!("⚠ {e}"));
+            }
+        });
+    }
+
+    fn settings_panel(&mut self, ui: &mut egui::Ui) {
+        let st = &mut self.state;
+        egui::CollapsingHeader::new("View").default_open(true).show(ui, |ui| {
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut st.view, ViewKind::Raster, "Raster")
+                    .on_hover_text("The rasterized GPU preview with the debugger's drawings (Tab toggles)");
+                ui.selectable_value(&mut st.view, ViewKind::RayTraced, "Ray traced")
+                    .on_hover_text("The ray-traced image (Tab toggles)");
+                ui.selectable_value(&mut st.view, ViewKind::HeatMap, "Heat map")
+                    .on_hover_text("BVH nodes visited per pixel: blue few, red many");
+            });
+        });
+        egui::CollapsingHeader::new("Imaging mode").default_open(true).show(ui, |ui| {
+            let mut mode = st.mode;
+            ui.radio_value(&mut mode, ModeChoice::Continuous, "Continuous")
+                .on_hover_text("Every frame is rendered afresh with its own anti-aliasing samples");
+            ui.radio_value(&mut mode, ModeChoice::Dynamic, "Dynamic")
+                .on_hover_text("A running average that restarts when a setting or the camera changes");
+            ui.radio_value(&mut mode, ModeChoice::Exposure, "Manual exposure")
+                .on_hover_text("Accumulate a number of frames; moving the camera meanwhile blurs the image");
+            st.set_mode(mode);
+            ui.add(egui::Slider::new(&mut st.exposure_frames, 1..=256).text("Exposure frames"))
+                .on_hover_text("Frames in one exposure");
+            if ui.button("Expose").on_hover_text("Start a new exposure of that many frames").clicked() {
+                st.expose();
+            }
+            ui.add(egui::Slider::new(&mut st.max_spp, 1..=4096).logarithmic(true).text("Max samples"))
+                .on_hover_text("Dynamic mode stops refining at this many samples per pixel");
+            if let Some(f) = &self.last_frame {
+                ui.label(format!("{} frames, {} samples/pixel, {:.2} Mrays/s", f.frames, f.spp, f.mrays_per_s));
+            }
+        });
+        let mut s = st.settings.clone();
+        egui::CollapsingHeader::new("Rendering").default_open(true).show(ui, |ui| {
+            ui.checkbox(&mut s.shading, "Shading").on_hover_text("Phong shading; off shows the unlit diffuse colour");
+            ui.checkbox(&mut s.shadows, "Shadows").on_hover_text("Cast shadow rays to the lights");
+            ui.checkbox(&mut s.reflections, "Reflections").on_hover_text("Recursive mirror/glossy reflection");
+            ui.checkbox(&mut s.transparency, "Transparency").on_hover_text("See through materials with d < 1");
+            ui.checkbox(&mut s.textures, "Textures").on_hover_text("Use diffuse textures (map_Kd)");
+            ui.checkbox(&mut s.interpolate_normals, "Interpolated normals")
+                .on_hover_text("Blend vertex normals across triangles (smooth shading)");
+            ui.add(egui::Slider::new(&mut s.max_depth, 0..=10).text("Max recursion depth"))
+                .on_hover_text("Rays at this depth cast no reflection or transmission ray");
+            ui.add(egui::Slider::new(&mut s.spp, 1..=64).text("Anti-aliasing rays"))
+                .on_hover_text("Camera rays per pixel in each frame");
+            ui.add(egui::Slider::new(&mut s.light_samples, 0..=256).text("Rays per light"))
+                .on_hover_text("Shadow rays per area light (soft shadows); 0 shades from the light's centre");
+            ui.add(egui::Slider::new(&mut s.gloss_samples, 0..=128).text("Gloss rays"))
+                .on_hover_text("Rays per glossy reflection; 0 reflects as a perfect mirror");
+            egui::ComboBox::from_label("Pixel filter").selected_text(format!("{:?}", s.filter)).show_ui(ui, |ui| {
+                for f in [PixelFilter::Box, PixelFilter::Tent, PixelFilter::Gaussian] {
+                    ui.selectable_value(&mut s.filter, f, format!("{f:?}"));
+                }
+            });
+            egui::ComboBox::from_label("Texture filter").selected_text(format!("{:?}", s.texture_filter)).show_ui(
+                ui,
+                |ui| {
+                    for f in [TextureFilter::Nearest, TextureFilter::Bilinear] {
+                        ui.selectable_value(&mut s.texture_filter, f, format!("{f:?}"));
+                    }
+                },
+            );
+        });
+        st.set_settings(s);
+        egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| {
+            let t = st.trackball;
+            ui.label(format!(
+                "rotation ({:.0}, {:.0}, {:.0}), distance {:.2}",
+                t.rotation.x, t.rotation.y, t.rotation.z, t.distance
+            ));
+            ui.label("Drag: orbit · right/shift-drag: pan · wheel: zoom · click: debug a pixel");
+            if ui.button("Reset camera").on_hover_text("Back to the scene's camera").clicked() {
+                st.reset_camera();
+            }
+        });
+        egui::CollapsingHeader::new("Render to file").default_open(true).show(ui, |ui| {
+            ui.text_edit_singleline(&mut self.save_path).on_hover_text("A .png, .exr or .pfm path");
+            if ui.button("Save image").on_hover_text("Write the current ray-traced image (atomically)").clicked() {
+                self.status = match &self.last_frame {
+                    None => "no ray-traced image yet".into(),
+                    Some(f) => match write_image(&f.image, std::path::Path::new(&self.save_path), Encoding::Linear) {
+                        Ok(()) => format!("saved {} ({} spp)", self.save_path, f.spp),
+                        Err(e) => format!("error: {e}"),
+                    },
+                };
+            }
+            if !self.status.is_empty() {
+                ui.label(&self.status);
+            }
+        });
+    }
+
+    fn debugger_panel(&mut self, ui: &mut egui::Ui) {
+        let st = &mut self.state;
+        egui::CollapsingHeader::new("Selected pixel").default_open(true).show(ui, |ui| match &st.selection {
+            None => {
+                ui.label("Click the image to trace a pixel.");
+            }
+            Some(sel) => {
+                ui.horizontal(|ui| {
+                    ui.label(format!("pixel ({}, {})", sel.pixel.0, sel.pixel.1));
+                    let c = sel.color.clamp(glam::Vec3::ZERO, glam::Vec3::ONE) * 255.0;
+                    let (r, _) = ui.allocate_exact_size(Vec2::splat(14.0), Sense::hover());
+                    ui.painter().rect_filled(r, 2.0, Color32::from_rgb(c.x as u8, c.y as u8, c.z as u8));
+                    ui.label(format!("({:.3}, {:.3}, {:.3})", sel.color.x, sel.color.y, sel.color.z));
+                });
+            }
+        });
+        let mut clear = false;
+        if let Some(sel) = &st.selection {
+            egui::CollapsingHeader::new(format!("Ray tree ({} rays)", sel.tree.rays.len())).default_open(true).show(
+                ui,
+                |ui| {
+                    for (i, r) in sel.tree.rays.iter().enumerate() {
+                        let title = format!("#{i} {:?} · depth {}", r.kind, r.depth);
+                        egui::CollapsingHeader::new(title).id_salt(("ray", i)).default_open(i < 4).show(ui, |ui| {
+                            match &r.hit {
+                                None => {
+                                    ui.label("missed");
+                                }
+                                Some(h) => {
+                                    let mat = &st.scene.materials[h.material as usize];
+                                    ui.label(format!("hit at t = {:.4}", h.t));
+                                    ui.label(format!("primitive {} · material '{}'", h.prim, mat.name));
+                                }
+                            }
+                            ui.label(format!("colour ({:.3}, {:.3}, {:.3})", r.color[0], r.color[1], r.color[2]));
+                            let reached = r.shadows.iter().filter(|s| s.blocked_at.is_none()).count();
+                            if !r.shadows.is_empty() {
+                                ui.label(format!(
+                                    "{} shadow rays: {} reached, {} blocked",
+                                    r.shadows.len(),
+                                    reached,
+                                    r.shadows.len() - reached
+                                ));
+                            }
+                        });
+                    }
+                    if ui.button("Clear selection").on_hover_text("Stop debugging this pixel").clicked() {
+                        clear = true;
+                    }
+                },
+            );
+        }
+        if clear {
+            st.selection = None;
+        }
+        egui::CollapsingHeader::new("BVH").default_open(true).show(ui, |ui| {
+            let stats = st.scene.bvh_stats();
+            ui.label(format!(
+                "{} nodes, {} leaves, {} levels, {:.1} per leaf",
+                stats.nodes, stats.leaves, stats.levels, stats.mean_leaf_size
+            ));
+            let mut on = st.bvh_level.is_some();
+            ui.checkbox(&mut on, "Show BVH level")
+                .on_hover_text("Draw the boxes of one level (and the leaves above it)");
+            let mut level = st.bvh_level.unwrap_or(0);
+            ui.add_enabled(on, egui::Slider::new(&mut level, 0..=stats.levels.saturating_sub(1) as u32).text("Level"))
+                .on_hover_text("0 is the root");
+            st.bvh_level = on.then_some(level);
+            ui.checkbox(&mut st.bvh_only_visited, "Only nodes the selected ray visited")
+                .on_hover_text("Of that level, draw only the nodes the camera ray's traversal entered");
+        });
+        egui::CollapsingHeader::new("Light samples").default_open(true).show(ui, |ui| {
+            ui.checkbox(&mut st.show_light_samples, "Show light samples")
+                .on_hover_text("Mark each sampled light point: green reached, red blocked");
+            ui.label("Raise 'Rays per light' to see the samples spread over the light.");
+        });
+    }
+
+    fn viewport(&mut self, ui: &mut egui::Ui, frame: &eframe::Frame) {
+        let area = ui.available_rect_before_wrap();
+        let response = ui.allocate_rect(area, Sense::click_and_drag());
+        let rect = self.state.image_rect(area);
+        self.image_rect = Some(rect);
+        let painter = ui.painter_at(area);
+        let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
+        match self.state.view {
+            ViewKind::Raster => match (&mut self.preview, frame.wgpu_render_state()) {
+                (Some(preview), Some(rs)) => {
+                    let ppp = ui.ctx().pixels_per_point();
+                    let size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
+                    let lines = self.state.overlay_lines();
+                    let key = Arc::as_ptr(&self.state.scene) as usize;
+                    let id = preview.render(rs, &self.state.scene, key, &self.state.trackball.camera(), size, &lines);
+                    painter.image(id, rect, uv, Color32::WHITE);
+                }
+                _ => {
+                    painter.text(
+                        rect.center(),
+                        egui::Align2::CENTER_CENTER,
+                        "no GPU renderer",
+                        Default::default(),
+                        Color32::GRAY,
+                    );
+                }
+            },
+            ViewKind::RayTraced | ViewKind::HeatMap => {
+                painter.rect_filled(rect, 0.0, Color32::BLACK);
+                if let Some(t) = &self.traced {
+                    painter.image(t.id(), rect, uv, Color32::WHITE);
+                } else {
+                    painter.text(
+                        rect.center(),
+                        egui::Align2::CENTER_CENTER,
+                        "rendering…",
+                        Default::default(),
+                        Color32::GRAY,
+                    );
+                }
+                if let Some(sel) = &self.state.selection {
+                    let (x, y) = sel.pixel;
+                    let p = Pos2::new(
+                        rect.min.x + (x as f32 + 0.5) / self.state.settings.width as f32 * rect.width(),
+                        rect.min.y + (y as f32 + 0.5) / self.state.settings.height as f32 * rect.height(),
+                    );
+                    let s = Stroke::new(1.5, Color32::from_rgb(255, 220, 0));
+                    painter.circle_stroke(p, 6.0, s);
+                    painter.line_segment([p - Vec2::X * 10.0, p + Vec2::X * 10.0], s);
+                    painter.line_segment([p - Vec2::Y * 10.0, p + Vec2::Y * 10.0], s);
+                }
+            }
+        }
+        // Mouse: click debugs a pixel; drag orbits; right or shift drag pans; wheel zooms.
+        let shift = ui.input(|i| i.modifiers.shift);
+        if response.clicked()
+            && let Some(p) = response.interact_pointer_pos().and_then(|pos| self.state.pixel_at(pos, rect))
+        {
+            self.state.select_pixel(p.0, p.1);
+        }
+        let delta = response.drag_delta();
+        if response.dragged_by(PointerButton::Secondary) || (response.dragged_by(PointerButton::Primary) && shift) {
+            self.state.trackball.pan(delta.x, delta.y, rect.height());
+        } else if response.dragged_by(PointerButton::Primary) {
+            self.state.trackball.orbit(delta.x, delta.y);
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                self.state.trackball.zoom(scroll);
+            }
+        }
+    }
+
+    fn headless_step(&mut self, ctx: &egui::Context) {
+        let Some(h) = &mut self.headless else { return };
+        if let Some(result) = h.saved.lock().unwrap().take() {
+            *self.outcome.lock().unwrap() = Some(result);
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        if h.started.elapsed().as_secs() > 300 {
+            *self.outcome.lock().unwrap() = Some(Err("timed out waiting for frames".into()));
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        let ready = self.worker.frames_posted() >= h.frames as u64 && self.last_frame.is_some();
+        if ready && !h.requested {
+            h.requested = true;
+            let (path, saved, ctx2) = (h.path.clone(), h.saved.clone(), ctx.clone());
+            ctx.request_screenshot(move |image| {
+                let [w, hgt] = image.size;
+                let data = image.pixels.iter().flat_map(|c| [c.r(), c.g(), c.b()]).map(|v| v as f32 / 255.0).collect();
+                let img = FloatImage { width: w as u32, height: hgt as u32, channels: 3, data };
+                let r = write_image(&img, &path, Encoding::Linear).map_err(|e| e.to_string());
+                *saved.lock().unwrap() = Some(r);
+                ctx2.request_repaint();
+            });
+        }
+        ctx.request_repaint();
+    }
+}
+
+impl eframe::App for RayscopeApp {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        self.poll_worker(&ctx);
+        if ctx.input(|i| i.key_pressed(Key::Tab)) {
+            self.state.view = if self.state.view == ViewKind::Raster { ViewKind::RayTraced } else { ViewKind::Raster };
+        }
+        egui::Panel::top("rayscope-top").show(ui, |ui| self.top_bar(ui));
+        egui::Panel::left("rayscope-settings").resizable(true).default_size(290.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.settings_panel(ui));
+        });
+        egui::Panel::right("rayscope-debugger").resizable(true).default_size(320.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.debugger_panel(ui));
+        });
+        egui::CentralPanel::no_frame().show(ui, |ui| self.viewport(ui, frame));
+        if let Some(b) = &mut self.browser {
+            match b.show(&ctx) {
+                BrowserAction::None => {}
+                BrowserAction::Cancel => self.browser = None,
+                BrowserAction::Open(p) => {
+                    self.browser = None;
+                    self.state.load_scene(&p.to_string_lossy());
+                }
+            }
+        }
+        self.submit_job();
+        self.headless_step(&ctx);
+    }
+}

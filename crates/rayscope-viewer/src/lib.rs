@@ -1,0 +1,15 @@
+//! The rayscope viewer: a desktop app (eframe/egui on wgpu) with a rasterized preview, the
+//! ray-traced view in the course's three imaging modes, every render setting on a panel, and
+//! the visual debugger (a pixel's ray tree, shadow rays and light samples, BVH levels, a
+//! traversal heat map). All tracing is the library's: the debugger shows what the renderer
+//! does.
+#![warn(missing_docs)]
+
+pub mod app;
+pub mod files;
+pub mod preview;
+pub mod state;
+pub mod trackball;
+pub mod worker;
+
+pub use app::{RayscopeApp, ViewerOptions, run};
