@@ -59,6 +59,13 @@ struct ViewArgs {
     /// Show this BVH level from the start.
     #[arg(long, value_name = "L")]
     bvh_level: Option<u32>,
+    /// Of the BVH level, draw only the nodes the debug pixel's camera ray entered.
+    #[arg(long, requires = "bvh_level")]
+    bvh_visited: bool,
+    /// After selecting the debug pixel, turn the camera by these angles (degrees about x and
+    /// y) to see its ray tree from the side.
+    #[arg(long, value_name = "DX,DY", value_parser = parse_orbit)]
+    orbit: Option<(f32, f32)>,
     /// Ray-traced frames to render before the screenshot.
     #[arg(long, default_value_t = 1, value_name = "N")]
     frames: u32,
@@ -224,6 +231,13 @@ struct DebugArgs {
     /// Which of the pixel's samples to trace (0 to spp - 1).
     #[arg(long, default_value_t = 0)]
     sample: u32,
+}
+
+#[cfg(feature = "viewer")]
+fn parse_orbit(s: &str) -> Result<(f32, f32), String> {
+    let (x, y) = s.split_once(',').ok_or("expected DX,DY")?;
+    let p = |v: &str| v.trim().parse::<f32>().ok().filter(|v| v.is_finite()).ok_or(format!("'{v}' is not a number"));
+    Ok((p(x)?, p(y)?))
 }
 
 fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
@@ -422,6 +436,8 @@ fn cmd_view(args: ViewArgs) -> Result<()> {
         view: Some(view),
         debug_pixel: args.debug_pixel,
         bvh_level: args.bvh_level,
+        orbit: args.orbit,
+        bvh_only_visited: args.bvh_visited,
         screenshot: args.screenshot,
         frames: args.frames,
     })

@@ -213,3 +213,64 @@ fn sampling_flags_are_checked() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// The real binary in a real window under Xvfb: `rayscope view --screenshot`.
+#[cfg(feature = "viewer")]
+#[test]
+fn view_screenshot_under_xvfb() {
+    let found = Command::new("sh").args(["-c", "command -v xvfb-run"]).output().map(|o| o.status.success());
+    if !found.unwrap_or(false) {
+        eprintln!("NOTICE: view_screenshot_under_xvfb: xvfb-run is not installed (see .ci/run); skipping");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let runtime = dir.path().join("xdg");
+    std::fs::create_dir(&runtime).unwrap();
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1600x1000x24", env!("CARGO_BIN_EXE_rayscope"), "view", "cornell-box"])
+        .args(["--screenshot", "shot.png", "--debug-pixel", "400,400", "--bvh-level", "3", "--frames", "2"])
+        .current_dir(dir.path())
+        .env("WGPU_BACKEND", "vulkan")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    let img = image::open(dir.path().join("shot.png")).unwrap().to_rgb8();
+    assert!(img.width() >= 800 && img.height() >= 600);
+    // The 3D view's background (its clear colour) frames the image: find it.
+    let bg = [15u8, 15, 18];
+    let (mut lo, mut hi) = ((u32::MAX, u32::MAX), (0, 0));
+    for (x, y, p) in img.enumerate_pixels() {
+        if p.0 == bg {
+            lo = (lo.0.min(x), lo.1.min(y));
+            hi = (hi.0.max(x), hi.1.max(y));
+        }
+    }
+    assert!(hi.0 > lo.0 + 400 && hi.1 > lo.1 + 400, "the 3D view is there: {lo:?}..{hi:?}");
+    let centre = ((lo.0 + hi.0) / 2, (lo.1 + hi.1) / 2);
+    let within = |r: u32, pred: &dyn Fn([u8; 3]) -> bool| {
+        let mut n = 0;
+        for y in centre.1.saturating_sub(r)..(centre.1 + r).min(img.height()) {
+            for x in centre.0.saturating_sub(r)..(centre.0 + r).min(img.width()) {
+                if pred(img.get_pixel(x, y).0) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    };
+    let near = |c: [u8; 3], w: [u8; 3]| (0..3).all(|i| (c[i] as i32 - w[i] as i32).abs() < 40);
+    // Not blank: the scene's walls, red and green.
+    assert!(within(400, &|c| c[0] > 90 && c[1] < 40 && c[2] < 40) > 2000, "red wall");
+    assert!(
+        within(400, &|c| c[1] > 25 && c[1] as u32 > 2 * c[0] as u32 && c[1] as u32 > 2 * c[2] as u32) > 2000,
+        "green wall"
+    );
+    // The ray overlay at the selected pixel (the image centre): the hit triangle's outline
+    // (pink) and the normal (blue) near it, and the shadow ray (green).
+    assert!(within(150, &|c| near(c, [255, 89, 217])) > 20, "hit triangle outline near the centre");
+    assert!(within(120, &|c| near(c, [51, 102, 255])) > 5, "hit normal at the centre");
+    assert!(within(400, &|c| near(c, [51, 255, 51])) > 20, "shadow ray");
+    // BVH boxes of level 3 (cyan) and leaves (orange).
+    assert!(within(400, &|c| near(c, [77, 230, 230])) > 200, "BVH boxes");
+}

@@ -34,6 +34,11 @@ pub struct ViewerOptions {
     pub debug_pixel: Option<(u32, u32)>,
     /// Show this BVH level from the start.
     pub bvh_level: Option<u32>,
+    /// Draw only the BVH nodes the debug pixel's camera ray entered.
+    pub bvh_only_visited: bool,
+    /// Turn the trackball by these angles (degrees about x and y) after selecting the debug
+    /// pixel, to look at its ray tree from the side.
+    pub orbit: Option<(f32, f32)>,
     /// Headless use: after `frames` ray-traced frames, save a screenshot of the window here
     /// and quit.
     pub screenshot: Option<PathBuf>,
@@ -106,9 +111,14 @@ impl RayscopeApp {
             state.view = v;
         }
         state.bvh_level = opts.bvh_level.map(|l| l.min(state.bvh_levels()));
+        state.bvh_only_visited = opts.bvh_only_visited;
         if let Some((x, y)) = opts.debug_pixel {
             let (x, y) = (x.min(state.settings.width - 1), y.min(state.settings.height - 1));
             state.select_pixel(x, y);
+        }
+        if let Some((dx, dy)) = opts.orbit {
+            state.trackball.rotation.x = (state.trackball.rotation.x + dx).clamp(-89.0, 89.0);
+            state.trackball.rotation.y += dy;
         }
         let ctx = cc.egui_ctx.clone();
         let worker = Worker::new(move || ctx.request_repaint());

@@ -315,7 +315,7 @@ pub const REACHED_COLOR: [f32; 4] = [0.2, 1.0, 0.2, 1.0];
 /// Shadow ray that an opaque surface blocked, and the blocker.
 pub const BLOCKED_COLOR: [f32; 4] = [1.0, 0.1, 0.1, 1.0];
 /// The hit triangle's outline.
-pub const TRIANGLE_COLOR: [f32; 4] = [1.0, 0.85, 0.1, 1.0];
+pub const TRIANGLE_COLOR: [f32; 4] = [1.0, 0.35, 0.85, 1.0];
 /// Geometric normal.
 pub const NORMAL_COLOR: [f32; 4] = [0.2, 0.4, 1.0, 1.0];
 /// Interpolated (shading) normal.
@@ -329,7 +329,7 @@ pub const LEAF_COLOR: [f32; 4] = [1.0, 0.55, 0.1, 0.9];
 /// glossy rays fainter, as there are many.
 pub fn depth_color(depth: u32, kind: RayKind) -> [f32; 4] {
     const BY_DEPTH: [[f32; 3]; 6] =
-        [[1.0, 1.0, 1.0], [1.0, 0.9, 0.2], [1.0, 0.55, 0.1], [0.95, 0.3, 0.8], [0.6, 0.4, 1.0], [0.4, 0.7, 1.0]];
+        [[1.0, 1.0, 1.0], [1.0, 0.8, 0.2], [1.0, 0.5, 0.1], [0.65, 0.45, 1.0], [0.4, 0.75, 1.0], [0.8, 0.8, 0.5]];
     let c = BY_DEPTH[(depth as usize).min(BY_DEPTH.len() - 1)];
     let a = if kind == RayKind::Glossy { 0.5 } else { 1.0 };
     [c[0], c[1], c[2], a]

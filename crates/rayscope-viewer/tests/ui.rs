@@ -1,0 +1,150 @@
+//! The real app, driven headless by egui_kittest on wgpu (Mesa's lavapipe on CI): pick a
+//! scene, click a pixel, toggle views and settings by their labels, and check the state and
+//! the pixels of the 3D view.
+
+use std::time::{Duration, Instant};
+
+use egui::{Event, Modifiers, PointerButton, Pos2};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use rayscope_viewer::state::{ModeChoice, ViewKind};
+use rayscope_viewer::{RayscopeApp, ViewerOptions};
+
+/// The app in a 1440x900 harness, or `None` (with a notice) where no wgpu adapter exists.
+fn harness(opts: ViewerOptions) -> Option<Harness<'static, RayscopeApp>> {
+    let built = std::panic::catch_unwind(move || {
+        Harness::builder()
+            .with_size([1440.0, 900.0])
+            .with_max_steps(400)
+            .wgpu()
+            .build_eframe(move |cc| RayscopeApp::new(cc, opts))
+    });
+    match built {
+        Ok(h) => Some(h),
+        Err(_) => {
+            eprintln!("NOTICE: no wgpu adapter (install mesa-vulkan-drivers); skipping the viewer UI test");
+            None
+        }
+    }
+}
+
+/// Step the app until the worker has delivered `n` frames (it renders on its own thread).
+fn wait_frames(h: &mut Harness<'_, RayscopeApp>, n: u64) {
+    let start = Instant::now();
+    while h.state().frames_delivered() < n || h.state().last_frame().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(120), "the worker delivered no frame");
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+    h.run_steps(2);
+}
+
+fn click(h: &mut Harness<'_, RayscopeApp>, pos: Pos2) {
+    h.event(Event::PointerMoved(pos));
+    h.run_steps(1);
+    for pressed in [true, false] {
+        h.event(Event::PointerButton { pos, button: PointerButton::Primary, pressed, modifiers: Modifiers::NONE });
+        h.run_steps(1);
+    }
+    h.run_steps(1);
+}
+
+fn count(img: &image::RgbaImage, rect: egui::Rect, pred: impl Fn([u8; 3]) -> bool) -> usize {
+    let mut n = 0;
+    for y in rect.min.y.max(0.0) as u32..(rect.max.y as u32).min(img.height()) {
+        for x in rect.min.x.max(0.0) as u32..(rect.max.x as u32).min(img.width()) {
+            let p = img.get_pixel(x, y).0;
+            if pred([p[0], p[1], p[2]]) {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
+fn near(c: [u8; 3], want: [f32; 4]) -> bool {
+    (0..3).all(|i| (c[i] as f32 - want[i] * 255.0).abs() < 40.0)
+}
+
+#[test]
+fn click_a_pixel_and_see_its_ray_tree() {
+    let opts = ViewerOptions { scene: "cornell-box".into(), ..Default::default() };
+    let Some(mut h) = harness(opts) else { return };
+    wait_frames(&mut h, 1);
+    let rect = h.state().image_rect.expect("the viewport was laid out");
+    // Click the centre of the image: pixel (400, 400).
+    click(&mut h, rect.center());
+    let sel = h.state().state.selection.as_ref().expect("the click selected a pixel");
+    assert_eq!(sel.pixel, (400, 400));
+    assert!(sel.tree.rays.len() >= 2, "camera ray and the mirror's reflection");
+    // The panel lists the tree.
+    h.get_by_label_contains("Ray tree (");
+    h.get_by_label_contains("#1 Reflection");
+    // The 3D view shows the scene (the red wall) and the overlay (shadow ray, normal,
+    // triangle outline) near the selected pixel.
+    let img = h.render().expect("rendered");
+    let red = count(&img, rect, |c| c[0] > 90 && c[1] < 40 && c[2] < 40);
+    assert!(red > 1000, "the red wall is drawn ({red} pixels)");
+    let around = egui::Rect::from_center_size(rect.center(), egui::vec2(rect.width() * 0.5, rect.height() * 0.6));
+    let outline = count(&img, around, |c| near(c, rayscope_viewer::state::TRIANGLE_COLOR));
+    let shadow = count(&img, rect, |c| near(c, rayscope_viewer::state::REACHED_COLOR));
+    assert!(outline > 20 && shadow > 20, "overlay drawn: outline {outline}, shadow ray {shadow}");
+}
+
+#[test]
+fn views_and_settings_by_their_labels() {
+    let opts = ViewerOptions { scene: "cornell-box".into(), ..Default::default() };
+    let Some(mut h) = harness(opts) else { return };
+    wait_frames(&mut h, 1);
+    h.get_by_label("Ray traced").click();
+    h.run_steps(2);
+    assert_eq!(h.state().state.view, ViewKind::RayTraced);
+    let g = h.state().state.generation;
+    h.get_by_label("Shadows").click();
+    h.run_steps(2);
+    assert!(!h.state().state.settings.shadows);
+    assert!(h.state().state.generation > g, "a settings change restarts the accumulation");
+    h.get_by_label("Continuous").click();
+    h.run_steps(2);
+    assert_eq!(h.state().state.mode, ModeChoice::Continuous);
+    // The traced view shows the ray-traced image: its pixels match the worker's frame.
+    let gen_now = h.state().state.generation;
+    let start = Instant::now();
+    while h.state().last_frame().is_none_or(|f| f.generation != gen_now) {
+        assert!(start.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+    h.run_steps(2);
+    let rect = h.state().image_rect.unwrap();
+    let img = h.render().unwrap();
+    let red = count(&img, rect, |c| c[0] > 90 && c[1] < 40 && c[2] < 40);
+    assert!(red > 1000, "the traced red wall ({red})");
+    h.get_by_label("Heat map").click();
+    h.run_steps(2);
+    assert_eq!(h.state().state.view, ViewKind::HeatMap);
+}
+
+#[test]
+fn pick_a_scene_and_show_bvh_boxes() {
+    let opts = ViewerOptions { scene: "cornell-box".into(), ..Default::default() };
+    let Some(mut h) = harness(opts) else { return };
+    h.get_by_label("Scene").click();
+    h.run_steps(2);
+    h.get_by_label("spheres").click();
+    h.run_steps(2);
+    assert_eq!(h.state().state.scene_spec, "spheres");
+    assert_eq!(h.state().state.scene.spheres.len(), 3);
+    h.get_by_label("Scene").click();
+    h.run_steps(2);
+    h.get_by_label("cornell-box").click();
+    h.run_steps(2);
+    assert_eq!(h.state().state.scene_spec, "cornell-box");
+    h.get_by_label("Show BVH level").click();
+    h.run_steps(3);
+    assert_eq!(h.state().state.bvh_level, Some(0));
+    let rect = h.state().image_rect.unwrap();
+    let img = h.render().unwrap();
+    let boxes = count(&img, rect, |c| near(c, rayscope_viewer::state::BOX_COLOR));
+    assert!(boxes > 100, "the root box is drawn ({boxes})");
+}
