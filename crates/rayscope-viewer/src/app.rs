@@ -97,6 +97,8 @@ pub struct RayscopeApp {
     status: String,
     /// The rectangle of the viewport image in the last frame (points).
     pub image_rect: Option<Rect>,
+    watched: Option<(PathBuf, Option<std::time::SystemTime>)>,
+    last_watch: Option<Instant>,
 }
 
 impl RayscopeApp {
@@ -143,7 +145,33 @@ impl RayscopeApp {
             save_path: "rayscope.png".into(),
             status: String::new(),
             image_rect: None,
+            watched: None,
+            last_watch: None,
         }
+    }
+
+    /// Reload the scene when its file changes on disk (checked about once a second).
+    fn watch_scene_file(&mut self, ctx: &egui::Context) {
+        let Some(path) = self.state.scene_file() else {
+            self.watched = None;
+            return;
+        };
+        if self.last_watch.is_some_and(|t| t.elapsed().as_millis() < 1000) {
+            return;
+        }
+        self.last_watch = Some(Instant::now());
+        let modified = std::fs::metadata(&path).and_then(|m| m.modified()).ok();
+        match &self.watched {
+            Some((p, m)) if *p == path => {
+                if *m != modified {
+                    self.state.reload();
+                    self.status = format!("reloaded {}", path.display());
+                    self.watched = Some((path, modified));
+                }
+            }
+            _ => self.watched = Some((path, modified)),
+        }
+        ctx.request_repaint_after(std::time::Duration::from_secs(1));
     }
 
     /// The newest ray-traced frame shown.
@@ -205,8 +233,14 @@ impl RayscopeApp {
                 let dir = std::env::current_dir().unwrap_or_default();
                 self.browser = Some(FileBrowser::new(dir));
             }
-            if ui.button("Reload").on_hover_text("Load the current scene again from its files").clicked() {
-                pick = Some(self.state.scene_spec.clone());
+            if ui
+                .button("Reload")
+                .on_hover_text(
+                    "Load the current scene again from its files (scene files reload by themselves when they change)",
+                )
+                .clicked()
+            {
+                self.state.reload();
             }
             if let Some(spec) = pick {
                 self.state.load_scene(&spec);
@@ -494,6 +528,7 @@ impl eframe::App for RayscopeApp {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.poll_worker(&ctx);
+        self.watch_scene_file(&ctx);
         if ctx.input(|i| i.key_pressed(Key::Tab)) {
             self.state.view = if self.state.view == ViewKind::Raster { ViewKind::RayTraced } else { ViewKind::Raster };
         }

@@ -134,6 +134,26 @@ impl ViewerState {
         }
     }
 
+    /// Load the current scene again (its files changed), keeping the camera, the settings and
+    /// the selected pixel.
+    pub fn reload(&mut self) {
+        let (trackball, settings, selection) = (self.trackball, self.settings.clone(), self.selection.clone());
+        let spec = self.scene_spec.clone();
+        self.load_scene(&spec);
+        if self.error.is_none() {
+            self.trackball = trackball;
+            self.settings = settings;
+            self.selection = selection;
+            self.retrace();
+        }
+    }
+
+    /// The scene file behind the current scene, if it came from one (to watch for changes).
+    pub fn scene_file(&self) -> Option<PathBuf> {
+        let p = PathBuf::from(&self.scene_spec);
+        p.is_file().then_some(p)
+    }
+
     /// Back to the scene's own camera.
     pub fn reset_camera(&mut self) {
         self.trackball = Trackball::from_desc(&self.scene.camera);
@@ -485,6 +505,27 @@ mod tests {
         s.bvh_only_visited = true;
         let visited = s.overlay_lines().iter().filter(|v| v.color == BOX_COLOR || v.color == LEAF_COLOR).count();
         assert!(visited <= all);
+    }
+
+    #[test]
+    fn reload_keeps_the_view() {
+        let dir = std::env::temp_dir().join(format!("rayscope-reload-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("s.toml");
+        let light = "[[light]]\nkind = \"point\"\nposition = [3, 0, 3]\ncolor = [1, 1, 1]\n";
+        std::fs::write(&file, format!("[[sphere]]\ncenter = [0, 0, 0]\nradius = 0.5\n{light}")).unwrap();
+        let mut s = ViewerState::new(file.to_str().unwrap(), None);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert_eq!(s.scene_file(), Some(file.clone()));
+        s.trackball.orbit(30.0, 0.0);
+        let t = s.trackball;
+        s.select_pixel(400, 400);
+        std::fs::write(&file, format!("[[sphere]]\ncenter = [0, 0, 0]\nradius = 0.8\n{light}")).unwrap();
+        s.reload();
+        assert_eq!(s.scene.spheres[0].radius, 0.8);
+        assert_eq!(s.trackball, t);
+        assert!(s.selection.is_some());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
