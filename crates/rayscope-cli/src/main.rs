@@ -7,6 +7,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+mod bench;
+
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -40,9 +42,36 @@ enum Command {
     },
     /// Trace one pixel and print its ray tree as JSON.
     Debug(DebugArgs),
+    /// Measure the course report's performance table on this machine.
+    Bench(BenchArgs),
     /// Open the viewer and visual debugger.
     #[cfg(feature = "viewer")]
     View(ViewArgs),
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Folder with the course's scene files (rows that need them are skipped without).
+    #[arg(long, env = "RAYSCOPE_ASSETS", value_name = "DIR")]
+    assets: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Renders per row; the fastest counts.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    repetitions: usize,
+    /// Renders per row before measuring.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    warmup: usize,
+    /// One render per row and no warm-up: every row, fast (a smoke run for CI).
+    #[arg(long)]
+    quick: bool,
+    /// Also write the table as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Also write the table as CSV.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
 }
 
 #[cfg(feature = "viewer")]
@@ -261,6 +290,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => cmd_render(args),
         Command::Scenes { export } => cmd_scenes(export),
         Command::Debug(args) => cmd_debug(args),
+        Command::Bench(args) => cmd_bench(args),
         #[cfg(feature = "viewer")]
         Command::View(args) => cmd_view(args),
     }
@@ -441,6 +471,21 @@ fn cmd_view(args: ViewArgs) -> Result<()> {
         screenshot: args.screenshot,
         frames: args.frames,
     })
+}
+
+fn cmd_bench(args: BenchArgs) -> Result<()> {
+    let pool = thread_pool(args.threads)?;
+    let (reps, warmup) = if args.quick { (1, 0) } else { (args.repetitions.max(1), args.warmup) };
+    let threads = pool.current_num_threads();
+    let report = pool.install(|| bench::run(args.assets.as_deref(), reps, warmup, threads))?;
+    print!("{}", bench::markdown(&report));
+    if let Some(p) = &args.json {
+        bench::write_text(p, &serde_json::to_string_pretty(&report)?)?;
+    }
+    if let Some(p) = &args.csv {
+        bench::write_text(p, &bench::csv(&report))?;
+    }
+    Ok(())
 }
 
 fn samples_note(film: &Film) -> String {

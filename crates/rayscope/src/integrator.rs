@@ -172,6 +172,7 @@ impl<'a> Integrator<'a> {
                 continue;
             }
             let segment = matches!(light, crate::light::Light::Segment { .. });
+            let sampler = light.sampler(si.point);
             let mut acc = Color::ZERO;
             for k in 0..n {
                 let u = if segment {
@@ -179,7 +180,7 @@ impl<'a> Integrator<'a> {
                 } else {
                     stratum_2d(k, n, ctx.sampler.next_2d())
                 };
-                let ls = light.sample(si.point, u);
+                let ls = sampler.sample(u);
                 acc += self.shade_sample(ray, si, i, &ls, ctx);
             }
             sum += acc / n as f32;

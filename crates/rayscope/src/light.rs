@@ -73,6 +73,66 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// Samples one light from one shading point: [`Light::sampler`].
+#[derive(Clone, Copy, Debug)]
+pub struct LightSampler {
+    p: Vec3A,
+    kind: SamplerKind,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum SamplerKind {
+    Fixed { point: Vec3A, color: Color },
+    Segment { start: Vec3A, delta: Vec3A, color0: Color, color1: Color, pdf: f32 },
+    Parallelogram { v0: Vec3A, edge01: Vec3A, edge02: Vec3A, colors: [Color; 4], pdf: f32 },
+    SphereSurface { center: Vec3A, radius: f32, color: Color, pdf: f32 },
+    SphereCone { w: Vec3A, t1: Vec3A, t2: Vec3A, d: f32, r2: f32, one_minus_cos_max: f32, color: Color, pdf: f32 },
+}
+
+impl LightSampler {
+    /// The point chosen by `u` in `[0,1)^2`: see [`Light::sample`].
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> LightSample {
+        let p = self.p;
+        let at = |point: Vec3A, color: Color, pdf: f32| {
+            let to = point - p;
+            let distance = to.length();
+            let wi = if distance > 0.0 { to / distance } else { Vec3A::ZERO };
+            LightSample { point, wi, distance, color, pdf }
+        };
+        match self.kind {
+            SamplerKind::Fixed { point, color } => at(point, color, 1.0),
+            SamplerKind::Segment { start, delta, color0, color1, pdf } => {
+                at(start + u.x * delta, color0.lerp(color1, u.x), pdf)
+            }
+            SamplerKind::Parallelogram { v0, edge01, edge02, colors: [c0, c1, c2, c3], pdf } => {
+                let c = c0.lerp(c1, u.x).lerp(c2.lerp(c3, u.x), u.y);
+                at(v0 + u.x * edge01 + u.y * edge02, c, pdf)
+            }
+            SamplerKind::SphereSurface { center, radius, color, pdf } => {
+                let z = 1.0 - 2.0 * u.x;
+                let s = (1.0 - z * z).max(0.0).sqrt();
+                let (sin_phi, cos_phi) = (std::f32::consts::TAU * u.y).sin_cos();
+                at(center + radius * Vec3A::new(s * cos_phi, s * sin_phi, z), color, pdf)
+            }
+            SamplerKind::SphereCone { w, t1, t2, d, r2, one_minus_cos_max, color, pdf } => {
+                let one_minus_cos = u.x * one_minus_cos_max;
+                let cos = 1.0 - one_minus_cos;
+                let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+                let (sin_phi, cos_phi) = (std::f32::consts::TAU * u.y).sin_cos();
+                let dir = (sin * cos_phi) * t1 + (sin * sin_phi) * t2 + cos * w;
+                // Where the direction meets the sphere: the near root of |p + t dir - c| = r.
+                // `b` is the distance to the closest approach, `h2` the half chord squared.
+                let b = d * cos;
+                let h2 = (r2 - d * d * sin * sin).max(0.0);
+                let t = b - h2.sqrt();
+                // The direction is unit length by construction: no need to measure it again.
+                LightSample { point: p + t * dir, wi: dir, distance: t, color, pdf }
+            }
+        }
+    }
+}
+
 impl Light {
     /// The point at parameters `u` in `[0,1]^2` and the light's colour there: the position of
     /// a point light; `lerp(endpoint0, endpoint1, u.x)` on a segment; `v0 + u.x edge01 + u.y
@@ -108,67 +168,74 @@ impl Light {
     /// uniformly over its surface. (The course's reports drew latitude and longitude uniformly
     /// and re-drew points facing away, which crowds samples at the poles and wastes draws.)
     pub fn sample(&self, p: Vec3A, u: Vec2) -> LightSample {
-        let at = |point: Vec3A, color: Color, pdf: f32| {
-            let to = point - p;
-            let distance = to.length();
-            let wi = if distance > 0.0 { to / distance } else { Vec3A::ZERO };
-            LightSample { point, wi, distance, color, pdf }
-        };
-        match *self {
-            Light::Point { .. } => {
-                let (point, color) = self.point_at(u);
-                at(point, color, 1.0)
-            }
-            Light::Segment { endpoint0, endpoint1, .. } => {
-                let (point, color) = self.point_at(u);
+        self.sampler(p).sample(u)
+    }
+
+    /// The work of [`Light::sample`] that depends only on the shading point, done once: a
+    /// shading point draws many samples from each light.
+    pub fn sampler(&self, p: Vec3A) -> LightSampler {
+        let kind = match *self {
+            Light::Point { position, color } => SamplerKind::Fixed { point: position.into(), color },
+            Light::Segment { endpoint0, endpoint1, color0, color1 } => {
                 let len = endpoint0.distance(endpoint1);
-                at(point, color, if len > 0.0 { 1.0 / len } else { 1.0 })
+                SamplerKind::Segment {
+                    start: endpoint0.into(),
+                    delta: (endpoint1 - endpoint0).into(),
+                    color0,
+                    color1,
+                    pdf: if len > 0.0 { 1.0 / len } else { 1.0 },
+                }
             }
-            Light::Parallelogram { edge01, edge02, .. } => {
-                let (point, color) = self.point_at(u);
+            Light::Parallelogram { v0, edge01, edge02, color0, color1, color2, color3 } => {
                 let area = edge01.cross(edge02).length();
-                at(point, color, if area > 0.0 { 1.0 / area } else { 1.0 })
+                SamplerKind::Parallelogram {
+                    v0: v0.into(),
+                    edge01: edge01.into(),
+                    edge02: edge02.into(),
+                    colors: [color0, color1, color2, color3],
+                    pdf: if area > 0.0 { 1.0 / area } else { 1.0 },
+                }
             }
             Light::Sphere { center, radius, color } => {
                 let c = Vec3A::from(center);
                 let d2 = c.distance_squared(p);
                 let r2 = radius * radius;
                 if radius <= 0.0 {
-                    return at(c, color, 1.0);
-                }
-                if d2 <= r2 {
+                    SamplerKind::Fixed { point: c, color }
+                } else if d2 <= r2 {
                     // Inside the light: every direction sees it; sample its whole surface.
-                    let z = 1.0 - 2.0 * u.x;
-                    let s = (1.0 - z * z).max(0.0).sqrt();
-                    let phi = std::f32::consts::TAU * u.y;
-                    let n = Vec3A::new(s * phi.cos(), s * phi.sin(), z);
-                    return at(c + radius * n, color, 1.0 / (4.0 * std::f32::consts::PI * r2));
-                }
-                let d = d2.sqrt();
-                let w = (c - p) / d;
-                let sin2_max = r2 / d2;
-                // 1 - cos(theta_max), by its series for small cones, where the direct form
-                // loses every digit to cancellation.
-                let one_minus_cos_max = if sin2_max < 1e-3 {
-                    sin2_max * (0.5 + sin2_max / 8.0)
+                    SamplerKind::SphereSurface {
+                        center: c,
+                        radius,
+                        color,
+                        pdf: 1.0 / (4.0 * std::f32::consts::PI * r2),
+                    }
                 } else {
-                    1.0 - (1.0 - sin2_max).max(0.0).sqrt()
-                };
-                let one_minus_cos = u.x * one_minus_cos_max;
-                let cos = 1.0 - one_minus_cos;
-                let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
-                let phi = std::f32::consts::TAU * u.y;
-                let (t1, t2) = w.any_orthonormal_pair();
-                let dir = (sin * phi.cos()) * t1 + (sin * phi.sin()) * t2 + cos * w;
-                // Where the direction meets the sphere: the near root of |p + t dir - c| = r.
-                // `b` is the distance to the closest approach, `h2` the half chord squared.
-                let b = d * cos;
-                let h2 = (r2 - d2 * sin * sin).max(0.0);
-                let t = b - h2.sqrt();
-                let pdf = 1.0 / (std::f32::consts::TAU * one_minus_cos_max);
-                at(p + t * dir, color, pdf)
+                    let d = d2.sqrt();
+                    let w = (c - p) / d;
+                    let sin2_max = r2 / d2;
+                    // 1 - cos(theta_max), by its series for small cones, where the direct form
+                    // loses every digit to cancellation.
+                    let one_minus_cos_max = if sin2_max < 1e-3 {
+                        sin2_max * (0.5 + sin2_max / 8.0)
+                    } else {
+                        1.0 - (1.0 - sin2_max).max(0.0).sqrt()
+                    };
+                    let (t1, t2) = w.any_orthonormal_pair();
+                    SamplerKind::SphereCone {
+                        w,
+                        t1,
+                        t2,
+                        d,
+                        r2,
+                        one_minus_cos_max,
+                        color,
+                        pdf: 1.0 / (std::f32::consts::TAU * one_minus_cos_max),
+                    }
+                }
             }
-        }
+        };
+        LightSampler { p, kind }
     }
 
     /// A representative position (the centre), for drawing and for distance heuristics.

@@ -1,0 +1,257 @@
+//! `rayscope bench`: the course report's performance table, measured on this machine.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use rayscope::render::{RenderSettings, render};
+use rayscope::scene::{Geometry, Scene};
+use serde::Serialize;
+
+/// One row of the table: a scene and the settings the course measured it with.
+pub struct RowSpec {
+    /// Label in the table.
+    pub label: &'static str,
+    /// Built-in scene.
+    pub scene: &'static str,
+    /// Settings on top of the defaults (800x800).
+    pub settings: fn(RenderSettings) -> RenderSettings,
+    /// The course report's figure, in ms, on its students' hardware.
+    pub report_ms: f64,
+}
+
+/// The rows of the course report's table, in its order.
+pub const ROWS: &[RowSpec] = &[
+    RowSpec { label: "single triangle", scene: "single-triangle", settings: |s| s, report_ms: 9.0 },
+    RowSpec { label: "cube", scene: "cube", settings: |s| s, report_ms: 20.0 },
+    RowSpec { label: "Cornell box (point light)", scene: "cornell-box", settings: |s| s, report_ms: 40.0 },
+    RowSpec {
+        label: "Cornell box (sphere light)",
+        scene: "cornell-box-sphere-light",
+        settings: |s| s,
+        report_ms: 66.0,
+    },
+    RowSpec { label: "monkey", scene: "monkey", settings: |s| s, report_ms: 65.0 },
+    RowSpec { label: "dragon", scene: "dragon", settings: |s| s, report_ms: 55.0 },
+    RowSpec { label: "teapot", scene: "teapot", settings: |s| s, report_ms: 96.0 },
+    RowSpec {
+        label: "dragon, interpolated normals",
+        scene: "dragon",
+        settings: |s| RenderSettings { interpolate_normals: true, ..s },
+        report_ms: 55.0,
+    },
+    RowSpec {
+        label: "Cornell box (sphere light), 50 shadow rays",
+        scene: "cornell-box-sphere-light",
+        settings: |s| RenderSettings { light_samples: 50, ..s },
+        report_ms: 1250.0,
+    },
+    RowSpec {
+        label: "  + 10 anti-aliasing rays",
+        scene: "cornell-box-sphere-light",
+        settings: |s| RenderSettings { light_samples: 50, spp: 10, ..s },
+        report_ms: 13500.0,
+    },
+    RowSpec {
+        label: "  + 50 glossy rays (no AA)",
+        scene: "cornell-box-sphere-light",
+        settings: |s| RenderSettings { light_samples: 50, gloss_samples: 50, ..s },
+        report_ms: 6300.0,
+    },
+];
+
+/// A measured row.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// Row label.
+    pub scene: String,
+    /// Built-in scene name.
+    pub builtin: String,
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// Fastest BVH build, ms.
+    pub build_ms: f64,
+    /// BVH levels.
+    pub levels: usize,
+    /// Fastest render, ms.
+    pub render_ms: f64,
+    /// All rays (camera, shadow, reflection) per second in the fastest render, millions.
+    pub mrays_per_s: f64,
+    /// Rays per render.
+    pub rays: u64,
+    /// The course report's figure (its hardware), ms.
+    pub report_ms: f64,
+    /// Why the row was not measured, if it was not.
+    pub skipped: Option<String>,
+}
+
+/// The machine, for the record.
+#[derive(Clone, Debug, Serialize)]
+pub struct Machine {
+    /// CPU model.
+    pub cpu: String,
+    /// Logical cores available.
+    pub cores: usize,
+    /// Threads the bench used.
+    pub threads: usize,
+    /// Operating system.
+    pub os: String,
+    /// Image size.
+    pub resolution: String,
+    /// Renders per row (after warm-up).
+    pub repetitions: usize,
+    /// Warm-up renders per row.
+    pub warmup: usize,
+}
+
+/// The whole report.
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    /// Where it ran.
+    pub machine: Machine,
+    /// The rows.
+    pub rows: Vec<Row>,
+}
+
+fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|s| s.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let os = std::fs::read_to_string("/etc/os-release")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l[12..].trim_matches('"').to_string()))
+        .unwrap_or_else(|| std::env::consts::OS.to_string());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup }
+}
+
+/// Run the table. `progress` prints a line per step.
+pub fn run(assets: Option<&Path>, repetitions: usize, warmup: usize, threads: usize) -> Result<Report> {
+    let mut rows = Vec::new();
+    let mut loaded: Option<(String, Scene)> = None;
+    for (i, spec) in ROWS.iter().enumerate() {
+        eprintln!("bench [{}/{}] {}", i + 1, ROWS.len(), spec.label);
+        let needs_assets = rayscope::scene::builtin::BUILTINS.iter().any(|b| b.name == spec.scene && b.needs_assets);
+        if loaded.as_ref().is_none_or(|(n, _)| n != spec.scene) {
+            match Scene::load(spec.scene, assets) {
+                Ok(s) => loaded = Some((spec.scene.to_string(), s)),
+                Err(e) if needs_assets => {
+                    eprintln!("  skipped: {e}");
+                    rows.push(skipped(spec, format!("{e}")));
+                    loaded = None;
+                    continue;
+                }
+                Err(e) => return Err(e).context(spec.scene),
+            }
+        }
+        let (_, scene) = loaded.as_ref().expect("loaded above");
+        let settings = (spec.settings)(RenderSettings::default());
+        let mut build = Duration::MAX;
+        let mut best = Duration::MAX;
+        let mut rays = 0;
+        for k in 0..warmup + repetitions.max(1) {
+            let start = Instant::now();
+            let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
+            let b = start.elapsed();
+            std::hint::black_box(&g);
+            let out = render(scene, &settings, &|_| {});
+            if k >= warmup {
+                build = build.min(b);
+                if out.elapsed < best {
+                    best = out.elapsed;
+                    rays = out.rays.total();
+                }
+            }
+        }
+        let render_ms = best.as_secs_f64() * 1e3;
+        rows.push(Row {
+            scene: spec.label.to_string(),
+            builtin: spec.scene.to_string(),
+            triangles: scene.triangle_count(),
+            build_ms: build.as_secs_f64() * 1e3,
+            levels: scene.bvh_stats().levels,
+            render_ms,
+            mrays_per_s: rays as f64 / best.as_secs_f64() / 1e6,
+            rays,
+            report_ms: spec.report_ms,
+            skipped: None,
+        });
+        eprintln!("  {render_ms:.1} ms");
+    }
+    Ok(Report { machine: machine(threads, repetitions, warmup), rows })
+}
+
+fn skipped(spec: &RowSpec, why: String) -> Row {
+    Row {
+        scene: spec.label.to_string(),
+        builtin: spec.scene.to_string(),
+        triangles: 0,
+        build_ms: f64::NAN,
+        levels: 0,
+        render_ms: f64::NAN,
+        mrays_per_s: f64::NAN,
+        rays: 0,
+        report_ms: spec.report_ms,
+        skipped: Some(why),
+    }
+}
+
+/// The report as a Markdown table.
+pub fn markdown(r: &Report) -> String {
+    let m = &r.machine;
+    let mut s = format!(
+        "Machine: {}, {} cores ({} threads used), {}; {}, fastest of {} renders after {} warm-up.\n\n",
+        m.cpu, m.cores, m.threads, m.os, m.resolution, m.repetitions, m.warmup
+    );
+    s += "| scene | triangles | BVH build (ms) | BVH levels | render (ms) | Mrays/s | course report (ms, its hardware) |\n";
+    s += "|---|---:|---:|---:|---:|---:|---:|\n";
+    for row in &r.rows {
+        match &row.skipped {
+            Some(_) => {
+                s += &format!("| {} | – | – | – | skipped: no scene files | – | {} |\n", row.scene, row.report_ms)
+            }
+            None => {
+                s += &format!(
+                    "| {} | {} | {:.2} | {} | {:.1} | {:.2} | {} |\n",
+                    row.scene, row.triangles, row.build_ms, row.levels, row.render_ms, row.mrays_per_s, row.report_ms
+                )
+            }
+        }
+    }
+    s
+}
+
+/// The report as CSV.
+pub fn csv(r: &Report) -> String {
+    let mut s = String::from("scene,builtin,triangles,build_ms,levels,render_ms,mrays_per_s,rays,report_ms\n");
+    for row in &r.rows {
+        s += &format!(
+            "\"{}\",{},{},{:.3},{},{:.3},{:.3},{},{}\n",
+            row.scene.trim(),
+            row.builtin,
+            row.triangles,
+            row.build_ms,
+            row.levels,
+            row.render_ms,
+            row.mrays_per_s,
+            row.rays,
+            row.report_ms
+        );
+    }
+    s
+}
+
+/// Write `text` to `path` atomically.
+pub fn write_text(path: &PathBuf, text: &str) -> Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).with_context(|| format!("{}", dir.display()))?;
+    std::io::Write::write_all(&mut tmp, text.as_bytes())?;
+    tmp.persist(path).with_context(|| format!("{}", path.display()))?;
+    Ok(())
+}
