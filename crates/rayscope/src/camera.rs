@@ -108,7 +108,20 @@ impl Camera {
     /// of aspect ratio `aspect` (width / height).
     #[inline]
     pub fn ray(&self, ndc: Vec2, aspect: f32) -> Ray {
-        let h = (self.fov_y.to_radians() * 0.5).tan();
+        self.ray_with(ndc, aspect, self.tan_half_fov())
+    }
+
+    /// `tan(fov_y / 2)`, which [`Camera::ray_with`] takes precomputed.
+    #[inline]
+    pub fn tan_half_fov(&self) -> f32 {
+        (self.fov_y.to_radians() * 0.5).tan()
+    }
+
+    /// [`Camera::ray`] with `tan(fov_y / 2)` given: the renderer computes it once per camera,
+    /// not once per ray.
+    #[inline]
+    pub fn ray_with(&self, ndc: Vec2, aspect: f32, tan_half_fov: f32) -> Ray {
+        let h = tan_half_fov;
         let local = Vec3::new(-ndc.x * h * aspect, ndc.y * h, 1.0).normalize();
         Ray::new(self.position, Vec3A::from(self.rotation * local))
     }

@@ -236,7 +236,7 @@ impl<'a> Integrator<'a> {
             return Color::ONE;
         }
         ctx.counts.shadow += 1;
-        let ray = Ray::spawn_to(si.point, si.geo_normal, ls.point, time);
+        let ray = Ray::spawn_towards(si.point, si.geo_normal, ls.wi, ls.distance, time);
         let t = self.scene.transmittance(&ray, self.settings);
         if R::RECORDS {
             // Only the debugger wants to know where the blocker is: an extra query, never paid
@@ -260,7 +260,7 @@ impl<'a> Integrator<'a> {
 pub fn sample_phong_lobe(axis: Vec3A, n: f32, u: Vec2) -> Vec3A {
     let cos = u.x.powf(1.0 / (n + 1.0));
     let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    let phi = std::f32::consts::TAU * u.y;
+    let (sin_phi, cos_phi) = crate::math::sin_cos_turns(u.y);
     let (t1, t2) = axis.any_orthonormal_pair();
-    (sin * phi.cos()) * t1 + (sin * phi.sin()) * t2 + cos * axis
+    (sin * cos_phi) * t1 + (sin * sin_phi) * t2 + cos * axis
 }

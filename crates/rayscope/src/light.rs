@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::math::{Color, Vec2, Vec3, Vec3A};
+use crate::math::{Color, Vec2, Vec3, Vec3A, sin_cos_turns};
 
 /// A light source. Lights are not visible geometry (as in the course).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -112,14 +112,14 @@ impl LightSampler {
             SamplerKind::SphereSurface { center, radius, color, pdf } => {
                 let z = 1.0 - 2.0 * u.x;
                 let s = (1.0 - z * z).max(0.0).sqrt();
-                let (sin_phi, cos_phi) = (std::f32::consts::TAU * u.y).sin_cos();
+                let (sin_phi, cos_phi) = sin_cos_turns(u.y);
                 at(center + radius * Vec3A::new(s * cos_phi, s * sin_phi, z), color, pdf)
             }
             SamplerKind::SphereCone { w, t1, t2, d, r2, one_minus_cos_max, color, pdf } => {
                 let one_minus_cos = u.x * one_minus_cos_max;
                 let cos = 1.0 - one_minus_cos;
                 let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
-                let (sin_phi, cos_phi) = (std::f32::consts::TAU * u.y).sin_cos();
+                let (sin_phi, cos_phi) = sin_cos_turns(u.y);
                 let dir = (sin * cos_phi) * t1 + (sin * sin_phi) * t2 + cos * w;
                 // Where the direction meets the sphere: the near root of |p + t dir - c| = r.
                 // `b` is the distance to the closest approach, `h2` the half chord squared.

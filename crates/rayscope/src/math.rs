@@ -25,6 +25,30 @@ pub fn quat_from_euler_degrees(degrees: Vec3) -> Quat {
     Quat::from_euler(glam::EulerRot::ZYX, r.z, r.y, r.x)
 }
 
+/// `(sin, cos)` of `2 pi t`, for `t` in `[0, 1)`: an odd polynomial after reduction to a
+/// quarter turn, accurate to about 1e-6, several times cheaper than libm's `sincosf`. For
+/// sampling directions, where that accuracy is far below the noise.
+#[inline]
+pub fn sin_cos_turns(t: f32) -> (f32, f32) {
+    #[inline(always)]
+    fn sin_turns(t: f32) -> f32 {
+        // Reduce to x in [-1/4, 1/4] turns, where sin is odd and monotonic (t < 1.25 here, so
+        // no rounding call is needed: baseline x86-64 has no rounding instruction).
+        let mut x = if t >= 0.5 { t - 1.0 } else { t };
+        if x > 0.25 {
+            x = 0.5 - x;
+        } else if x < -0.25 {
+            x = -0.5 - x;
+        }
+        let a = x * std::f32::consts::TAU;
+        let a2 = a * a;
+        // Taylor coefficients to a^11: the truncation error at a = pi/2 is below 6e-8.
+        a * (1.0
+            + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 * (1.0 / 362880.0 - a2 / 39916800.0)))))
+    }
+    (sin_turns(t), sin_turns(t + 0.25))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -47,6 +71,16 @@ mod tests {
             let a = quat_from_euler_degrees(deg);
             let b = glm_quat(deg * (std::f32::consts::PI / 180.0));
             assert!(a.dot(b).abs() > 1.0 - 1e-6, "{deg}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn fast_sin_cos_is_accurate() {
+        for i in 0..=10000 {
+            let t = i as f32 / 10000.0 * 0.99999;
+            let (s, c) = sin_cos_turns(t);
+            let (es, ec) = (std::f32::consts::TAU * t).sin_cos();
+            assert!((s - es).abs() < 2e-6 && (c - ec).abs() < 2e-6, "{t}: {s} {c} vs {es} {ec}");
         }
     }
 

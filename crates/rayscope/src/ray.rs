@@ -67,6 +67,16 @@ impl Ray {
         let dist = (target - origin).length();
         Ray { origin, dir, t: Interval { min: 0.0, max: dist * (1.0 - SPAWN_EPSILON) }, time }
     }
+
+    /// [`Ray::spawn_to`] for a target already known by its unit direction `wi` from `p` and
+    /// its `distance`: no normalisation or length again, as each light sample has them.
+    #[inline]
+    pub fn spawn_towards(p: Vec3A, ng: Vec3A, wi: Vec3A, distance: f32, time: f32) -> Ray {
+        let origin = offset_origin(p, ng, wi);
+        // The offset moved the origin along the direction by its projection on it.
+        let dist = distance - (origin - p).dot(wi);
+        Ray { origin, dir: wi, t: Interval { min: 0.0, max: dist * (1.0 - SPAWN_EPSILON) }, time }
+    }
 }
 
 #[inline]

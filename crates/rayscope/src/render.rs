@@ -225,6 +225,7 @@ pub fn render_pass(
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> (RayCounts, bool) {
     let integrator = Integrator::new(scene, settings);
+    let still_tan_half = camera.end.is_none().then(|| camera.start.tan_half_fov());
     let (w, h) = (settings.width, settings.height);
     let (sums, counts) = film.raw();
     let results = per_tile(w, h, cancel, progress, |x, y| {
@@ -233,7 +234,7 @@ pub fn render_pass(
         let last = first.saturating_add(pass.samples).min(pass.limit.max(first));
         let mut rays = RayCounts::default();
         for k in first..last {
-            let (c, r) = sample_pixel(&integrator, camera, x, y, k, pass, &mut NoRecorder);
+            let (c, r) = sample_pixel(&integrator, camera, still_tan_half, x, y, k, pass, &mut NoRecorder);
             sum += c;
             rays.add(r);
         }
@@ -258,9 +259,11 @@ pub fn render_pass(
 }
 
 /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger, uses.
+#[allow(clippy::too_many_arguments)]
 fn sample_pixel<R: RayRecorder>(
     integrator: &Integrator,
     camera: &CameraMotion,
+    still_tan_half: Option<f32>,
     x: u32,
     y: u32,
     k: u32,
@@ -272,7 +275,13 @@ fn sample_pixel<R: RayRecorder>(
     let offset = s.filter.warp(sampler.pixel_offset);
     let ndc = Camera::ndc(x, y, s.width, s.height, Vec2::splat(0.5) + offset);
     let time = sampler.time;
-    let mut ray = camera.at(time).ray(ndc, s.width as f32 / s.height as f32);
+    let cam = camera.at(time);
+    // A still camera's tan(fov/2) is computed once per pass, not per ray.
+    let tan_half = match (camera.end, still_tan_half) {
+        (None, Some(t)) => t,
+        _ => cam.tan_half_fov(),
+    };
+    let mut ray = cam.ray_with(ndc, s.width as f32 / s.height as f32, tan_half);
     ray.time = time;
     let mut ctx = PathContext::new(sampler, rec);
     let c = integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
@@ -313,7 +322,7 @@ pub fn trace_pixel<R: RayRecorder>(
 ) -> Color {
     let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
-    sample_pixel(&integrator, camera, x, y, k, pass, rec).0
+    sample_pixel(&integrator, camera, None, x, y, k, pass, rec).0
 }
 
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.

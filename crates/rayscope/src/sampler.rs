@@ -35,6 +35,13 @@ pub struct Pcg32 {
 }
 
 impl Pcg32 {
+    /// A generator whose state is `state` (which should already be well mixed, as a hash
+    /// output is) on stream `stream`, without PCG's warm-up steps.
+    #[inline]
+    pub fn from_state(state: u64, stream: u64) -> Pcg32 {
+        Pcg32 { state, inc: (stream << 1) | 1 }
+    }
+
     /// A generator for `seed` on stream `stream`.
     pub fn new(seed: u64, stream: u64) -> Pcg32 {
         let mut r = Pcg32 { state: 0, inc: (stream << 1) | 1 };
@@ -132,21 +139,24 @@ fn bits_to_unit(b: u32) -> f32 {
     (b >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
-/// Base-3 radical inverse of `i`, in `[0, 1)`.
+/// Base-3 radical inverse of `i`, in `[0, 1)`: the digits reversed as an integer, then one
+/// division.
 fn radical_inverse_3(mut i: u32) -> f32 {
-    let (mut r, mut f) = (0.0f64, 1.0f64 / 3.0);
+    let (mut reversed, mut scale) = (0u64, 1u64);
     while i > 0 {
-        r += (i % 3) as f64 * f;
+        reversed = reversed * 3 + (i % 3) as u64;
+        scale *= 3;
         i /= 3;
-        f /= 3.0;
     }
-    r as f32
+    (reversed as f64 / scale as f64) as f32
 }
 
 /// The integer square root of `n` when `n` is a perfect square.
 pub fn exact_sqrt(n: u32) -> Option<u32> {
-    let m = (n as f64).sqrt().round() as u32;
-    (m * m == n).then_some(m)
+    // Truncation, not `round()`: baseline x86-64 has no rounding instruction, and this runs
+    // for every camera sample.
+    let m = ((n as f64).sqrt() + 0.5) as u64;
+    (m * m == n as u64).then_some(m as u32)
 }
 
 /// A grid `a x b = n` as square as possible (`a <= b`), for stratifying `n` 2D samples.
@@ -188,15 +198,19 @@ impl PixelSampler {
     /// number of samples the pixel will get if known (it selects the jittered grid for
     /// squares), or 0 for open-ended progressive rendering.
     pub fn new(seed: u64, pixel: u32, index: u32, planned: u32) -> PixelSampler {
-        let pixel_key = hash(&[seed, pixel as u64]);
-        let rng = Pcg32::new(hash(&[pixel_key, index as u64]), pixel_key);
-        let mut cell_rng = Pcg32::new(hash(&[pixel_key, index as u64, 1]), pixel_key ^ 1);
+        // Built for every camera sample, so kept to a few hashes: a profile once found a
+        // third of a simple scene's time here.
+        let pixel_key = mix64(seed ^ mix64(pixel as u64 ^ 0x9E37_79B9_7F4A_7C15));
+        let sample_key = mix64(pixel_key ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
+        let rng = Pcg32::from_state(sample_key, pixel_key);
         let pixel_offset = match exact_sqrt(planned) {
             // One planned sample: the pixel centre, as the course traced it.
             Some(1) if index == 0 => Vec2::splat(0.5),
             Some(m) if m > 1 && index < planned => {
                 let cell = permute(index, planned, pixel_key as u32);
-                Vec2::new((cell % m) as f32 + cell_rng.next_f32(), (cell / m) as f32 + cell_rng.next_f32()) / m as f32
+                let j = mix64(sample_key ^ 0xA076_1D64_78BD_642F);
+                let jitter = Vec2::new(bits_to_unit(j as u32), bits_to_unit((j >> 32) as u32));
+                (Vec2::new((cell % m) as f32, (cell / m) as f32) + jitter) / m as f32
             }
             _ => {
                 let shift = pixel_key;

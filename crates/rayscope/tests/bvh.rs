@@ -3,7 +3,7 @@
 mod common;
 
 use common::{Rng, assets, builtin_scene};
-use rayscope::bvh::{BuildParams, Bvh, Primitives};
+use rayscope::bvh::{BuildParams, Bvh, Bvh4, Primitives};
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use rayscope::math::Vec3A;
 use rayscope::ray::Ray;
@@ -35,12 +35,27 @@ fn brute_closest(shapes: &[Shape], ray: &Ray) -> Option<(u32, PrimHit)> {
 /// Check closest-hit and any-hit against brute force on `n` rays from `origin_of`.
 fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
     let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
-    let bvh = Bvh::build(&bounds, &BuildParams::default());
-    bvh.validate(&bounds).unwrap();
+    check_with(shapes, &bounds, &BuildParams::default(), rays)
+}
+
+/// [`check`] with these build parameters: the binary BVH and the 4-wide BVH collapsed from it
+/// both against brute force, and against each other (the 4-wide one runs the SIMD slab test,
+/// the binary one the scalar one).
+fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: impl Iterator<Item = Ray>) -> usize {
+    let bvh = Bvh::build(bounds, params);
+    bvh.validate(bounds).unwrap();
+    let bvh4 = Bvh4::from_binary(&bvh);
+    bvh4.validate(&bvh, bounds).unwrap();
     let prims = Ordered { shapes, bvh: &bvh };
     let mut hits = 0;
     for ray in rays {
         let got = bvh.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
+        let wide = bvh4.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
+        assert_eq!(got.map(|g| g.1.t), wide.map(|w| w.1.t), "binary and 4-wide BVH disagree on {ray:?}");
+        if let (Some(g), Some(w)) = (got, wide) {
+            assert!(g.0 == w.0 || g.1.t == w.1.t);
+        }
+        assert_eq!(bvh4.occluded(&ray, &prims), got.is_some(), "4-wide any-hit, ray {ray:?}");
         let want = brute_closest(shapes, &ray);
         match (got, want) {
             (None, None) => {}
@@ -114,6 +129,7 @@ fn degenerate_inputs() {
     let bvh = Bvh::build(&[], &BuildParams::default());
     bvh.validate(&[]).unwrap();
     assert!(bvh.nodes.is_empty());
+    assert!(Bvh4::from_binary(&bvh).nodes.is_empty());
     check(&[], rays(&mut rng));
     // One triangle.
     check(&[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))], rays(&mut rng));
@@ -155,6 +171,29 @@ fn degenerate_inputs() {
         })
         .collect();
     check(&huge, random_rays(&mut rng, 300, 1e6).into_iter());
+}
+
+#[test]
+fn wide_bvh_handles_huge_leaves_and_lone_roots() {
+    let mut rng = Rng(17);
+    let p = Vec3A::new(0.1, 0.2, 0.3);
+    // 300 primitives in one point and a build that never splits: one leaf larger than a
+    // 4-wide leaf reference holds, which the collapse must spread over nodes.
+    let same: Vec<Shape> = (0..300).map(|_| Shape::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y))).collect();
+    let bounds: Vec<Aabb> = same.iter().map(Shape::bounds).collect();
+    let lazy = BuildParams { max_leaf_size: 1000, traversal_cost: 1e9, ..BuildParams::default() };
+    let bvh = Bvh::build(&bounds, &lazy);
+    assert_eq!(bvh.nodes.len(), 1, "a single leaf root");
+    check_with(&same, &bounds, &lazy, random_rays(&mut rng, 300, 1.0).into_iter());
+    // A lone small leaf root.
+    let one = [Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))];
+    let b1: Vec<Aabb> = one.iter().map(Shape::bounds).collect();
+    check_with(&one, &b1, &BuildParams::default(), random_rays(&mut rng, 300, 1.0).into_iter());
+    // Leaves of many sizes.
+    let soup = random_soup(&mut rng, 2000, 0.1);
+    let bs: Vec<Aabb> = soup.iter().map(Shape::bounds).collect();
+    let big_leaves = BuildParams { max_leaf_size: 40, traversal_cost: 30.0, ..BuildParams::default() };
+    check_with(&soup, &bs, &big_leaves, random_rays(&mut rng, 1000, 1.2).into_iter());
 }
 
 #[test]

@@ -10,11 +10,13 @@ pub mod node;
 pub mod stats;
 pub mod traverse;
 pub mod validate;
+pub mod wide;
 
 pub use build::BuildParams;
 pub use node::BvhNode;
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
+pub use wide::Bvh4;
 
 use crate::geometry::PrimHit;
 use crate::ray::Ray;

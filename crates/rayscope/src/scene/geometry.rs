@@ -1,7 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, PrimRef, SceneSphere};
-use crate::bvh::{BuildParams, Bvh, Primitives, TraversalObserver};
+use crate::bvh::{BuildParams, Bvh, Bvh4, Primitives, TraversalObserver};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -52,8 +52,11 @@ impl Shape {
 /// The BVH and the shapes it indexes, stored in BVH order so a leaf's shapes are contiguous.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
-    /// The hierarchy.
+    /// The binary hierarchy: what the debugger's level view draws, and what [`Bvh4`] is
+    /// collapsed from.
     pub bvh: Bvh,
+    /// The 4-wide hierarchy rendering traverses.
+    pub bvh4: Bvh4,
     /// Shapes in BVH slot order.
     pub shapes: Vec<Shape>,
     /// Moving shapes, referenced by [`Shape::Moving`].
@@ -72,9 +75,10 @@ impl Geometry {
     pub fn build(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef]) -> Geometry {
         let mut moving = Vec::new();
         let shapes = all_shapes(meshes, spheres, prims, &mut moving);
-        let mut geometry = Geometry { bvh: Bvh::default(), shapes: Vec::new(), moving };
+        let mut geometry = Geometry { bvh: Bvh::default(), bvh4: Bvh4::default(), shapes: Vec::new(), moving };
         let bounds: Vec<Aabb> = shapes.iter().map(|s| geometry.shape_bounds(s)).collect();
         geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
+        geometry.bvh4 = Bvh4::from_binary(&geometry.bvh);
         geometry.shapes = geometry.bvh.prim_indices.iter().map(|&i| shapes[i as usize]).collect();
         geometry
     }
@@ -106,15 +110,28 @@ impl Geometry {
         }
     }
 
-    /// Closest hit, with its global primitive id.
+    /// Closest hit, with its global primitive id (through the 4-wide BVH).
     #[inline]
     pub fn intersect<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
-        self.bvh.intersect_counted(ray, self, stats).map(|h| Hit {
-            t: h.hit.t,
-            prim: self.bvh.prim_indices[h.slot as usize],
-            u: h.hit.u,
-            v: h.hit.v,
-        })
+        let hit = self.bvh4.intersect_counted(ray, self, stats);
+        self.global_hit(hit)
+    }
+
+    /// Closest hit through the binary BVH (for the debugger, whose views show its nodes).
+    pub fn intersect_binary<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
+        let hit = self.bvh.intersect_counted(ray, self, stats);
+        self.global_hit(hit)
+    }
+
+    /// Whether anything blocks `ray` (through the 4-wide BVH).
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.bvh4.occluded(ray, self)
+    }
+
+    #[inline]
+    fn global_hit(&self, hit: Option<crate::bvh::BvhHit>) -> Option<Hit> {
+        hit.map(|h| Hit { t: h.hit.t, prim: self.bvh.prim_indices[h.slot as usize], u: h.hit.u, v: h.hit.v })
     }
 }
 

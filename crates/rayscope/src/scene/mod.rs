@@ -239,17 +239,18 @@ impl Scene {
         self.geometry.intersect(ray, stats)
     }
 
-    /// The BVH nodes a closest-hit query for `ray` enters, in traversal order.
+    /// The binary BVH nodes a closest-hit query for `ray` enters, in traversal order (the
+    /// nodes the debugger's level view draws).
     pub fn visited_nodes(&self, ray: &Ray) -> Vec<u32> {
         let mut log = NodeLog::default();
-        self.geometry.intersect(ray, &mut log);
+        self.geometry.intersect_binary(ray, &mut log);
         log.0
     }
 
     /// Whether anything lies on `ray` within its interval.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.geometry.bvh.occluded(ray, &self.geometry)
+        self.geometry.occluded(ray)
     }
 
     /// The material of primitive `prim`.
