@@ -1,0 +1,353 @@
+//! rayscope's BVH side by side with Intel Embree 3 on the same triangles and the same rays.
+//!
+//! ```sh
+//! apt-get install libembree-dev libtbb-dev
+//! cargo bench -p rayscope --features embree --bench embree
+//! ```
+//!
+//! For each mesh (the dragon and the teapot from the course's files, and a procedural mesh of
+//! about a million triangles) it builds both BVHs, traces 800x800 camera rays, as many
+//! incoherent rays (random origins in the scene's box, random directions) and shadow rays
+//! (any-hit) on 1 and 2 threads, checks that both find the same closest hits, and prints the
+//! times, throughputs and ratios as a Markdown table. Embree gets its recommended settings:
+//! flush-to-zero and denormals-are-zero on every thread, the coherent flag for camera rays,
+//! its default (medium quality) build on the same number of threads.
+
+use std::ffi::CString;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use embree::sys;
+use rayon::prelude::*;
+use rayscope::camera::CameraDesc;
+use rayscope::material::Material;
+use rayscope::math::Vec3A;
+use rayscope::ray::Ray;
+use rayscope::scene::{Geometry, LoadContext, Mesh, Scene, builtin};
+
+const REPS: usize = 5;
+
+struct Soup {
+    name: String,
+    positions: Vec<Vec3A>,
+    triangles: Vec<[u32; 3]>,
+}
+
+fn course_mesh(name: &str, assets: &Option<PathBuf>) -> Option<Soup> {
+    let assets = assets.clone()?;
+    let desc = builtin::scene_desc(name).ok()?;
+    let scene = Scene::from_desc(&desc, &LoadContext { assets: Some(assets), ..LoadContext::default() }).ok()?;
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for m in &scene.meshes {
+        let base = positions.len() as u32;
+        positions.extend_from_slice(&m.positions);
+        triangles.extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    Some(Soup { name: name.into(), positions, triangles })
+}
+
+/// A bumpy torus of `n x m x 2` triangles fitting the unit sphere: a million-triangle mesh
+/// with detail at every scale, needing no file.
+fn procedural(n: u32, m: u32) -> Soup {
+    let mut positions = Vec::with_capacity((n * m) as usize);
+    for i in 0..n {
+        for j in 0..m {
+            let (u, v) = (i as f32 / n as f32 * std::f32::consts::TAU, j as f32 / m as f32 * std::f32::consts::TAU);
+            let bump = 0.03 * ((7.0 * u).sin() * (13.0 * v).cos() + 0.5 * (41.0 * u + 3.0 * v).sin());
+            let r = 0.25 + bump;
+            positions.push(Vec3A::new((0.7 + r * v.cos()) * u.cos(), r * v.sin(), (0.7 + r * v.cos()) * u.sin()));
+        }
+    }
+    let idx = |i: u32, j: u32| (i % n) * m + (j % m);
+    let mut triangles = Vec::with_capacity((2 * n * m) as usize);
+    for i in 0..n {
+        for j in 0..m {
+            triangles.push([idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)]);
+            triangles.push([idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]);
+        }
+    }
+    Soup { name: format!("procedural torus ({}k)", 2 * n * m / 1000), positions, triangles }
+}
+
+fn ours(soup: &Soup) -> (Scene, Duration) {
+    let mesh = Mesh {
+        name: soup.name.clone(),
+        positions: soup.positions.clone(),
+        triangles: soup.triangles.clone(),
+        materials: vec![0; soup.triangles.len()],
+        ..Mesh::default()
+    };
+    let scene = Scene::new(
+        soup.name.clone(),
+        CameraDesc::default(),
+        vec![mesh],
+        vec![],
+        vec![Material::default()],
+        vec![],
+        vec![],
+        None,
+    );
+    let mut best = Duration::MAX;
+    for _ in 0..REPS {
+        let start = Instant::now();
+        let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
+        best = best.min(start.elapsed());
+        std::hint::black_box(g);
+    }
+    (scene, best)
+}
+
+struct Embree {
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+}
+
+unsafe impl Send for Embree {}
+unsafe impl Sync for Embree {}
+
+impl Embree {
+    fn build(soup: &Soup, threads: usize) -> (Embree, Duration) {
+        let cfg = CString::new(format!("threads={threads}")).unwrap();
+        let mut best = Duration::MAX;
+        let mut kept = None;
+        for _ in 0..REPS {
+            unsafe {
+                let device = sys::rtcNewDevice(cfg.as_ptr());
+                let scene = sys::rtcNewScene(device);
+                sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality::MEDIUM);
+                let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+                let v = sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTCBufferType::VERTEX,
+                    0,
+                    sys::RTCFormat::FLOAT3,
+                    16,
+                    soup.positions.len(),
+                ) as *mut [f32; 4];
+                for (i, p) in soup.positions.iter().enumerate() {
+                    *v.add(i) = [p.x, p.y, p.z, 0.0];
+                }
+                let ix = sys::rtcSetNewGeometryBuffer(
+                    geom,
+                    sys::RTCBufferType::INDEX,
+                    0,
+                    sys::RTCFormat::UINT3,
+                    12,
+                    soup.triangles.len(),
+                ) as *mut [u32; 3];
+                for (i, t) in soup.triangles.iter().enumerate() {
+                    *ix.add(i) = *t;
+                }
+                sys::rtcCommitGeometry(geom);
+                sys::rtcAttachGeometry(scene, geom);
+                sys::rtcReleaseGeometry(geom);
+                let start = Instant::now();
+                sys::rtcCommitScene(scene);
+                best = best.min(start.elapsed());
+                if let Some(old) = kept.replace(Embree { device, scene }) {
+                    drop(old);
+                }
+            }
+        }
+        (kept.unwrap(), best)
+    }
+
+    fn intersect(&self, r: &Ray, coherent: bool) -> Option<(u32, f32)> {
+        let mut rh = sys::RTCRayHit {
+            ray: sys::RTCRay {
+                org_x: r.origin.x,
+                org_y: r.origin.y,
+                org_z: r.origin.z,
+                tnear: r.t.min,
+                dir_x: r.dir.x,
+                dir_y: r.dir.y,
+                dir_z: r.dir.z,
+                time: 0.0,
+                tfar: r.t.max,
+                mask: u32::MAX,
+                id: 0,
+                flags: 0,
+            },
+            hit: sys::RTCHit {
+                Ng_x: 0.0,
+                Ng_y: 0.0,
+                Ng_z: 0.0,
+                u: 0.0,
+                v: 0.0,
+                primID: u32::MAX,
+                geomID: u32::MAX,
+                instID: [u32::MAX],
+            },
+        };
+        let mut ctx =
+            if coherent { embree::IntersectContext::coherent() } else { embree::IntersectContext::incoherent() };
+        unsafe { sys::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+        (rh.hit.geomID != u32::MAX).then_some((rh.hit.primID, rh.ray.tfar))
+    }
+
+    fn occluded(&self, r: &Ray) -> bool {
+        let mut ray = sys::RTCRay {
+            org_x: r.origin.x,
+            org_y: r.origin.y,
+            org_z: r.origin.z,
+            tnear: r.t.min,
+            dir_x: r.dir.x,
+            dir_y: r.dir.y,
+            dir_z: r.dir.z,
+            time: 0.0,
+            tfar: r.t.max,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        };
+        let mut ctx = embree::IntersectContext::incoherent();
+        unsafe { sys::rtcOccluded1(self.scene, &mut ctx, &mut ray) };
+        ray.tfar < 0.0
+    }
+}
+
+impl Drop for Embree {
+    fn drop(&mut self) {
+        unsafe {
+            sys::rtcReleaseScene(self.scene);
+            sys::rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+/// Flush-to-zero and denormals-are-zero, as Embree recommends, on the calling thread.
+#[allow(deprecated)]
+fn ftz_daz() {
+    #[cfg(target_arch = "x86_64")]
+    unsafe {
+        use std::arch::x86_64::{_mm_getcsr, _mm_setcsr};
+        _mm_setcsr(_mm_getcsr() | 0x8040);
+    }
+}
+
+struct Rng(u64);
+impl Rng {
+    fn f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
+    }
+}
+
+fn camera_rays(scene: &Scene) -> Vec<Ray> {
+    let cam = scene.camera();
+    (0..800u32).flat_map(|y| (0..800u32).map(move |x| (x, y))).map(|(x, y)| cam.pixel_ray(x, y, 800, 800)).collect()
+}
+
+fn incoherent_rays(scene: &Scene, n: usize) -> Vec<Ray> {
+    let b = scene.geometry.bvh.nodes[0].bounds();
+    let mut rng = Rng(42);
+    (0..n)
+        .map(|_| {
+            let o = b.min + (b.max - b.min) * Vec3A::new(rng.f32(), rng.f32(), rng.f32());
+            let d = loop {
+                let v = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - Vec3A::ONE;
+                if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
+                    break v.normalize();
+                }
+            };
+            Ray::new(o, d)
+        })
+        .collect()
+}
+
+fn shadow_rays(scene: &Scene, cam: &[Ray]) -> Vec<Ray> {
+    let light = Vec3A::new(-1.0, 1.0, -1.0);
+    cam.iter()
+        .filter_map(|r| scene.intersect(r).map(|h| (r, h)))
+        .map(|(r, h)| {
+            let si = scene.surface(r, &h, &Default::default());
+            Ray::spawn_to(si.point, si.geo_normal, light, 0.0)
+        })
+        .collect()
+}
+
+/// Fastest of REPS passes of `f` over `rays` on `pool`, in Mrays/s.
+fn throughput<F: Fn(&Ray) -> bool + Sync>(pool: &rayon::ThreadPool, rays: &[Ray], f: F) -> f64 {
+    let mut best = Duration::MAX;
+    for _ in 0..REPS {
+        let start = Instant::now();
+        let hits = pool.install(|| rays.par_chunks(4096).map(|c| c.iter().filter(|r| f(r)).count()).sum::<usize>());
+        std::hint::black_box(hits);
+        best = best.min(start.elapsed());
+    }
+    rays.len() as f64 / best.as_secs_f64() / 1e6
+}
+
+fn main() {
+    let assets = std::env::var_os("RAYSCOPE_ASSETS")
+        .map(PathBuf::from)
+        .or_else(|| Some(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")))
+        .filter(|p| p.join("dragon.obj").is_file());
+    if assets.is_none() {
+        eprintln!("NOTICE: the course's scene files are absent (set RAYSCOPE_ASSETS); only the procedural mesh runs");
+    }
+    let mut soups: Vec<Soup> = ["dragon", "teapot"].iter().filter_map(|n| course_mesh(n, &assets)).collect();
+    soups.push(procedural(1000, 500));
+    println!(
+        "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | incoherent | any-hit (shadow) | hits agree |"
+    );
+    println!("|---|---:|---:|---|---|---|---|---|");
+    for soup in &soups {
+        let (scene, our_build) = ours(soup);
+        let cam = camera_rays(&scene);
+        let inc = incoherent_rays(&scene, cam.len());
+        let shadow = shadow_rays(&scene, &cam);
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.broadcast(|_| ftz_daz());
+            ftz_daz();
+            let (emb, emb_build) = Embree::build(soup, threads);
+            // Same closest hits: same primitive, or (at a shared edge or vertex, where either
+            // triangle is right) the same distance within 1e-4 relative.
+            let mut disagree = 0usize;
+            for (rays, coherent) in [(&cam, true), (&inc, false)] {
+                for r in rays.iter() {
+                    let a = scene.intersect(r).map(|h| (h.prim, h.t));
+                    let b = emb.intersect(r, coherent);
+                    let same = match (a, b) {
+                        (None, None) => true,
+                        (Some((pa, ta)), Some((pb, tb))) => pa == pb || (ta - tb).abs() <= 1e-4 * ta.abs().max(1e-3),
+                        _ => false,
+                    };
+                    disagree += usize::from(!same);
+                }
+            }
+            let total = cam.len() + inc.len();
+            let oc = throughput(&pool, &cam, |r| scene.intersect(r).is_some());
+            let ec = throughput(&pool, &cam, |r| emb.intersect(r, true).is_some());
+            let oi = throughput(&pool, &inc, |r| scene.intersect(r).is_some());
+            let ei = throughput(&pool, &inc, |r| emb.intersect(r, false).is_some());
+            let os = throughput(&pool, &shadow, |r| scene.occluded(r));
+            let es = throughput(&pool, &shadow, |r| emb.occluded(r));
+            let build_ours = if threads == 2 { our_build } else { pool.install(|| ours_build_time(&scene)) };
+            println!(
+                "| {} | {} | {threads} | {:.1} / {:.1} | {oc:.2} / {ec:.2} / {:.2} | {oi:.2} / {ei:.2} / {:.2} | {os:.2} / {es:.2} / {:.2} | {} of {total} differ |",
+                soup.name,
+                soup.triangles.len(),
+                build_ours.as_secs_f64() * 1e3,
+                emb_build.as_secs_f64() * 1e3,
+                oc / ec,
+                oi / ei,
+                os / es,
+                disagree
+            );
+        }
+    }
+}
+
+fn ours_build_time(scene: &Scene) -> Duration {
+    let mut best = Duration::MAX;
+    for _ in 0..REPS {
+        let start = Instant::now();
+        let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
+        best = best.min(start.elapsed());
+        std::hint::black_box(g);
+    }
+    best
+}
