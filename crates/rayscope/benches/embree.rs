@@ -3,6 +3,7 @@
 //! ```sh
 //! apt-get install libembree-dev libtbb-dev
 //! cargo bench -p rayscope --features embree --bench embree
+//! RAYSCOPE_EMBREE_MESHES=dragon,teapot cargo bench -p rayscope --features embree --bench embree
 //! ```
 //!
 //! For each mesh (the dragon and the teapot from the course's files, and a procedural mesh of
@@ -287,8 +288,14 @@ fn main() {
     if assets.is_none() {
         eprintln!("NOTICE: the course's scene files are absent (set RAYSCOPE_ASSETS); only the procedural mesh runs");
     }
-    let mut soups: Vec<Soup> = ["dragon", "teapot"].iter().filter_map(|n| course_mesh(n, &assets)).collect();
-    soups.push(procedural(1000, 500));
+    // RAYSCOPE_EMBREE_MESHES=dragon,teapot,torus picks meshes (default: all three).
+    let pick = std::env::var("RAYSCOPE_EMBREE_MESHES").unwrap_or_else(|_| "dragon,teapot,torus".into());
+    let wanted: Vec<&str> = pick.split(',').map(str::trim).collect();
+    let mut soups: Vec<Soup> =
+        ["dragon", "teapot"].iter().filter(|n| wanted.contains(n)).filter_map(|n| course_mesh(n, &assets)).collect();
+    if wanted.contains(&"torus") {
+        soups.push(procedural(1000, 500));
+    }
     println!(
         "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | incoherent | any-hit (shadow) | hits agree |"
     );

@@ -19,6 +19,14 @@ impl Primitives for Ordered<'_> {
     fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
         self.shapes[self.bvh.prim_indices[index as usize] as usize].intersect(ray, t_min, t_max)
     }
+
+    // Triangles are offered for packing, so the 4-wide BVH's SIMD triangle test is checked too.
+    fn triangle(&self, index: u32) -> Option<Triangle> {
+        match self.shapes[self.bvh.prim_indices[index as usize] as usize] {
+            Shape::Triangle(t) => Some(t),
+            _ => None,
+        }
+    }
 }
 
 fn brute_closest(shapes: &[Shape], ray: &Ray) -> Option<(u32, PrimHit)> {
@@ -44,15 +52,18 @@ fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
 fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: impl Iterator<Item = Ray>) -> usize {
     let bvh = Bvh::build(bounds, params);
     bvh.validate(bounds).unwrap();
-    let bvh4 = Bvh4::from_binary(&bvh);
-    bvh4.validate(&bvh, bounds).unwrap();
     let prims = Ordered { shapes, bvh: &bvh };
+    let bvh4 = Bvh4::from_binary(&bvh, &prims);
+    bvh4.validate(&bvh, bounds).unwrap();
     let mut hits = 0;
     for ray in rays {
         let got = bvh.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
         let wide = bvh4.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
         assert_eq!(got.map(|g| g.1.t), wide.map(|w| w.1.t), "binary and 4-wide BVH disagree on {ray:?}");
         if let (Some(g), Some(w)) = (got, wide) {
+            // The packed (SIMD) triangle test returns the scalar test's exact barycentrics.
+            let scalar = shapes[w.0 as usize].intersect(&ray, ray.t.min, ray.t.max).unwrap();
+            assert_eq!((scalar.t, scalar.u, scalar.v), (w.1.t, w.1.u, w.1.v), "{ray:?}");
             assert!(g.0 == w.0 || g.1.t == w.1.t);
         }
         assert_eq!(bvh4.occluded(&ray, &prims), got.is_some(), "4-wide any-hit, ray {ray:?}");
@@ -129,7 +140,7 @@ fn degenerate_inputs() {
     let bvh = Bvh::build(&[], &BuildParams::default());
     bvh.validate(&[]).unwrap();
     assert!(bvh.nodes.is_empty());
-    assert!(Bvh4::from_binary(&bvh).nodes.is_empty());
+    assert!(Bvh4::from_binary(&bvh, &Ordered { shapes: &[], bvh: &bvh }).nodes.is_empty());
     check(&[], rays(&mut rng));
     // One triangle.
     check(&[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))], rays(&mut rng));

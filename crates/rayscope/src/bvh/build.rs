@@ -9,7 +9,7 @@ use crate::math::Vec3A;
 /// How the BVH is built.
 #[derive(Clone, Debug)]
 pub struct BuildParams {
-    /// Number of bins per axis for the SAH sweep.
+    /// Number of bins per axis for the SAH sweep (2 to [`MAX_BINS`]).
     pub bins: usize,
     /// Largest leaf the SAH may choose; bigger sets are always split (unless inseparable).
     pub max_leaf_size: usize,
@@ -127,26 +127,35 @@ fn bin_of(c: f32, lo: f32, scale: f32, bins: usize) -> usize {
     (((c - lo) * scale) as usize).min(bins - 1)
 }
 
+/// Most bins per axis the builder supports (its bins live on the stack).
+pub const MAX_BINS: usize = 32;
+
 /// The cheapest binned SAH split over the three axes, or `None` when all centroids coincide.
+/// All three axes are binned in one pass over the primitives, into bins on the stack: the
+/// build spends most of its time here.
 fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &BuildParams) -> Option<Split> {
-    let nb = params.bins;
+    let nb = params.bins.clamp(2, MAX_BINS);
     let extent = centroids.extent();
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
-    let mut best: Option<Split> = None;
-    let mut bins = vec![Bin { bounds: Aabb::EMPTY, count: 0 }; nb];
-    let mut right_area = vec![0.0f32; nb];
-    let mut right_count = vec![0u32; nb];
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        let lo = centroids.min[axis];
-        let scale = nb as f32 / extent[axis];
-        bins.fill(Bin { bounds: Aabb::EMPTY, count: 0 });
-        for p in prims {
-            let b = &mut bins[bin_of(p.centroid[axis], lo, scale, nb)];
+    let empty = Bin { bounds: Aabb::EMPTY, count: 0 };
+    let mut bins = [[empty; MAX_BINS]; 3];
+    let lo = centroids.min;
+    // A zero extent gives an infinite scale; such an axis is skipped below.
+    let scale = Vec3A::splat(nb as f32) / extent;
+    for p in prims {
+        let rel = (p.centroid - lo) * scale;
+        for (axis, axis_bins) in bins.iter_mut().enumerate() {
+            let b = &mut axis_bins[(rel[axis] as usize).min(nb - 1)];
             b.bounds = b.bounds.union(p.bounds);
             b.count += 1;
+        }
+    }
+    let mut best: Option<Split> = None;
+    let mut right_area = [0.0f32; MAX_BINS];
+    let mut right_count = [0u32; MAX_BINS];
+    for (axis, bins) in bins.iter().enumerate() {
+        if extent[axis] <= 0.0 {
+            continue;
         }
         // Sweep from the right to know, for each split plane, the box and count to its right.
         let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
@@ -175,8 +184,10 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
 }
 
 fn partition(prims: &mut [BuildPrim], centroids: &Aabb, s: &Split, bins: usize) -> usize {
+    let bins = bins.clamp(2, MAX_BINS);
     let lo = centroids.min[s.axis];
-    let scale = bins as f32 / centroids.extent()[s.axis];
+    // The same arithmetic as the binning, so every primitive lands on its bin's side.
+    let scale = (Vec3A::splat(bins as f32) / centroids.extent())[s.axis];
     let mut mid = 0;
     for i in 0..prims.len() {
         if bin_of(prims[i].centroid[s.axis], lo, scale, bins) < s.bin {

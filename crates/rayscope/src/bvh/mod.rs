@@ -28,6 +28,12 @@ pub const MAX_DEPTH: usize = 64;
 pub trait Primitives {
     /// Intersect primitive `index` (a position in [`Bvh::prim_indices`]) within `[t_min, t_max]`.
     fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit>;
+
+    /// Primitive `index` as a static triangle, if it is one: such primitives may be packed
+    /// for SIMD intersection ([`wide::Tri4`]), which must then give the hits `intersect` does.
+    fn triangle(&self, _index: u32) -> Option<crate::geometry::Triangle> {
+        None
+    }
 }
 
 /// A bounding volume hierarchy in one flat array, depth-first: a node's first child follows it.

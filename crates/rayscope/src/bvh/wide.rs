@@ -9,16 +9,19 @@ use wide::f32x4;
 use super::{Bvh, BvhError, BvhHit, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::Aabb;
 use crate::geometry::aabb::safe_inv_dir;
+use crate::geometry::{PrimHit, Triangle};
 use crate::ray::Ray;
 
 /// Marks an unused child slot.
 pub const EMPTY: u32 = u32::MAX;
 /// Set on a child reference that is a leaf.
 const LEAF_BIT: u32 = 1 << 31;
-/// Bits of a leaf reference that hold its first primitive slot.
-const START_BITS: u32 = 25;
-/// Most primitives one leaf reference can hold (6 bits of count - 1).
-pub const MAX_LEAF_REF: u32 = 64;
+/// Set, with [`LEAF_BIT`], on a leaf of packed triangles ([`Tri4`] blocks).
+const PACKED_BIT: u32 = 1 << 30;
+/// Bits of a packed leaf reference that hold its first block.
+const BLOCK_BITS: u32 = 26;
+/// Most blocks one packed leaf holds (4 bits of count - 1); larger leaves use ranges.
+const MAX_BLOCKS: u32 = 16;
 
 /// One node: four child boxes and four child references, 128 bytes (two cache lines).
 ///
@@ -26,7 +29,7 @@ pub const MAX_LEAF_REF: u32 = 64;
 /// |---|---|---|
 /// | `min_x`, `min_y`, `min_z` | 0..48 | lower corners of the four child boxes, by axis |
 /// | `max_x`, `max_y`, `max_z` | 48..96 | upper corners, by axis |
-/// | `child` | 96..112 | per child: [`EMPTY`]; a node index; or a leaf: bit 31 set, bits 25..31 the primitive count - 1, bits 0..25 the first primitive slot |
+/// | `child` | 96..112 | per child: [`EMPTY`]; a node index; a packed leaf: bits 31 and 30 set, bits 26..30 the block count - 1, bits 0..26 the first [`Tri4`] block; or a range leaf: bit 31 set, bits 0..30 an index into [`Bvh4::ranges`] |
 /// | padding | 112..128 | keeps nodes aligned to cache lines |
 ///
 /// Empty slots have boxes at `+inf` that no ray with a finite `t_max` can hit.
@@ -86,15 +89,87 @@ impl Node4 {
     }
 }
 
-/// A leaf reference's first slot and count.
-#[inline(always)]
-pub fn leaf_range(child: u32) -> (u32, u32) {
-    (child & ((1 << START_BITS) - 1), ((child >> START_BITS) & 0x3f) + 1)
+/// Four triangles in structure-of-arrays form, for one 4-wide Möller–Trumbore test: the
+/// leaves of static triangles are stored as these. 160 bytes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
+pub struct Tri4 {
+    /// First vertices, by axis.
+    pub v0: [[f32; 4]; 3],
+    /// Edges from vertex 0 to vertex 1, by axis.
+    pub e1: [[f32; 4]; 3],
+    /// Edges from vertex 0 to vertex 2, by axis.
+    pub e2: [[f32; 4]; 3],
+    /// Primitive slot of each lane; [`EMPTY`] for an unused lane (whose triangle is
+    /// degenerate and never hit).
+    pub slot: [u32; 4],
 }
 
-fn leaf_ref(start: u32, count: u32) -> u32 {
-    debug_assert!((1..=MAX_LEAF_REF).contains(&count) && start < (1 << START_BITS));
-    LEAF_BIT | ((count - 1) << START_BITS) | start
+const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
+
+impl Tri4 {
+    fn pack(tris: &[(u32, Triangle)]) -> Tri4 {
+        let mut t = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], slot: [EMPTY; 4] };
+        for (lane, (slot, tri)) in tris.iter().enumerate() {
+            for axis in 0..3 {
+                t.v0[axis][lane] = tri.v0[axis];
+                t.e1[axis][lane] = tri.e1[axis];
+                t.e2[axis][lane] = tri.e2[axis];
+            }
+            t.slot[lane] = *slot;
+        }
+        t
+    }
+
+    /// The triangle in `lane`.
+    pub fn triangle(&self, lane: usize) -> Triangle {
+        let v = |a: &[[f32; 4]; 3]| crate::math::Vec3A::new(a[0][lane], a[1][lane], a[2][lane]);
+        Triangle { v0: v(&self.v0), e1: v(&self.e1), e2: v(&self.e2) }
+    }
+
+    /// Möller–Trumbore on four triangles at once, with exactly the scalar test's arithmetic
+    /// ([`Triangle::intersect`]), so hits are bit-identical: returns the lanes hit within
+    /// `[t_min, t_max]` and their `t`, `u`, `v`.
+    #[inline(always)]
+    fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
+        let l = |a: &[f32; 4]| f32x4::new(*a);
+        let (e1x, e1y, e1z) = (l(&self.e1[0]), l(&self.e1[1]), l(&self.e1[2]));
+        let (e2x, e2y, e2z) = (l(&self.e2[0]), l(&self.e2[1]), l(&self.e2[2]));
+        // p = dir x e2
+        let px = r.dy * e2z - r.dz * e2y;
+        let py = r.dz * e2x - r.dx * e2z;
+        let pz = r.dx * e2y - r.dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv_det = f32x4::ONE / det;
+        // s = origin - v0
+        let sx = r.ox - l(&self.v0[0]);
+        let sy = r.oy - l(&self.v0[1]);
+        let sz = r.oz - l(&self.v0[2]);
+        let u = (sx * px + sy * py + sz * pz) * inv_det;
+        // q = s x e1
+        let qx = sy * e1z - sz * e1y;
+        let qy = sz * e1x - sx * e1z;
+        let qz = sx * e1y - sy * e1x;
+        let v = (r.dx * qx + r.dy * qy + r.dz * qz) * inv_det;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
+        let zero = f32x4::ZERO;
+        // det != 0 and finite: |det| in (0, inf).
+        let ok_det = det.abs().simd_gt(zero) & det.abs().simd_lt(f32x4::splat(f32::INFINITY));
+        let ok_u = u.simd_ge(zero) & u.simd_le(f32x4::ONE);
+        let ok_v = v.simd_ge(zero) & (u + v).simd_le(f32x4::ONE);
+        let ok_t = t.simd_ge(f32x4::splat(t_min)) & t.simd_le(f32x4::splat(t_max));
+        let mask = (ok_det & ok_u & ok_v & ok_t).to_bitmask();
+        (mask, t.to_array(), u.to_array(), v.to_array())
+    }
+}
+
+/// Where a range leaf's primitives are: slots `start..start + count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LeafRange {
+    /// First slot.
+    pub start: u32,
+    /// Number of slots.
+    pub count: u32,
 }
 
 #[inline(always)]
@@ -107,6 +182,11 @@ fn ray_is_finite(ray: &Ray) -> bool {
 pub struct Bvh4 {
     /// Nodes; `nodes[0]` is the root. Empty for an empty scene.
     pub nodes: Vec<Node4>,
+    /// Packed triangles of the leaves that hold only static triangles.
+    pub blocks: Vec<Tri4>,
+    /// The other leaves (spheres, moving shapes, mixes, oversized leaves): slot ranges whose
+    /// primitives are intersected one by one through [`Primitives`].
+    pub ranges: Vec<LeafRange>,
 }
 
 /// Deepest traversal stack: three pushes per level of a tree at most [`super::MAX_DEPTH`] deep.
@@ -149,6 +229,9 @@ struct RayLanes {
     ox: f32x4,
     oy: f32x4,
     oz: f32x4,
+    dx: f32x4,
+    dy: f32x4,
+    dz: f32x4,
     ix: f32x4,
     iy: f32x4,
     iz: f32x4,
@@ -162,6 +245,9 @@ impl RayLanes {
             ox: f32x4::splat(ray.origin.x),
             oy: f32x4::splat(ray.origin.y),
             oz: f32x4::splat(ray.origin.z),
+            dx: f32x4::splat(ray.dir.x),
+            dy: f32x4::splat(ray.dir.y),
+            dz: f32x4::splat(ray.dir.z),
             ix: f32x4::splat(inv.x),
             iy: f32x4::splat(inv.y),
             iz: f32x4::splat(inv.z),
@@ -192,46 +278,41 @@ impl RayLanes {
 
 impl Bvh4 {
     /// Collapse a binary BVH: each node takes its binary node's children and keeps opening
-    /// the largest interior one (by surface area) until it has four.
-    pub fn from_binary(bin: &Bvh) -> Bvh4 {
+    /// the largest interior one (by surface area) until it has four. Leaves of static
+    /// triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
+    pub fn from_binary<P: Primitives + ?Sized>(bin: &Bvh, prims: &P) -> Bvh4 {
         let mut out = Bvh4::default();
         let Some(root) = bin.nodes.first() else { return out };
-        if root.is_leaf() {
-            out.nodes.push(Node4::empty());
-            let r = out.leaf_child(root.start, root.count, &root.bounds());
-            out.nodes[0].set(0, &root.bounds(), r);
-            return out;
-        }
         out.nodes.push(Node4::empty());
-        out.fill(bin, 0, 0);
+        if root.is_leaf() {
+            let r = out.leaf(prims, root.start, root.count);
+            out.nodes[0].set(0, &root.bounds(), r);
+        } else {
+            out.fill(bin, prims, 0, 0);
+        }
         out
     }
 
-    /// A child reference for a binary leaf: one leaf reference, or (for a leaf larger than a
-    /// reference can hold, which only the depth cap makes) nodes of leaf references.
-    fn leaf_child(&mut self, start: u32, count: u32, bounds: &Aabb) -> u32 {
-        if count <= MAX_LEAF_REF {
-            return leaf_ref(start, count);
-        }
-        // Split the range in four and make a node of it (recursively).
-        let idx = self.nodes.len() as u32;
-        self.nodes.push(Node4::empty());
-        let quarter = count.div_ceil(4);
-        let mut n = Node4::empty();
-        for i in 0..4u32 {
-            let s = start + i * quarter;
-            let c = quarter.min((start + count).saturating_sub(s));
-            if c == 0 {
-                break;
+    /// A leaf reference for slots `start..start + count`: packed blocks when every primitive
+    /// is a static triangle and there are few enough, else a range.
+    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, start: u32, count: u32) -> u32 {
+        let tris: Option<Vec<(u32, Triangle)>> =
+            (start..start + count).map(|s| prims.triangle(s).map(|t| (s, t))).collect();
+        match tris {
+            Some(tris) if count.div_ceil(4) <= MAX_BLOCKS && (self.blocks.len() as u32) < (1 << BLOCK_BITS) => {
+                let first = self.blocks.len() as u32;
+                self.blocks.extend(tris.chunks(4).map(Tri4::pack));
+                let n = self.blocks.len() as u32 - first;
+                LEAF_BIT | PACKED_BIT | ((n - 1) << BLOCK_BITS) | first
             }
-            let r = self.leaf_child(s, c, bounds);
-            n.set(i as usize, bounds, r);
+            _ => {
+                self.ranges.push(LeafRange { start, count });
+                LEAF_BIT | (self.ranges.len() as u32 - 1)
+            }
         }
-        self.nodes[idx as usize] = n;
-        idx
     }
 
-    fn fill(&mut self, bin: &Bvh, bin_index: usize, at: usize) {
+    fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, prims: &P, bin_index: usize, at: usize) {
         let node = &bin.nodes[bin_index];
         let mut kids = vec![bin_index + 1, node.start as usize];
         while kids.len() < 4 {
@@ -249,7 +330,7 @@ impl Bvh4 {
         for (slot, &k) in kids.iter().enumerate() {
             let child = &bin.nodes[k];
             if child.is_leaf() {
-                let r = self.leaf_child(child.start, child.count, &child.bounds());
+                let r = self.leaf(prims, child.start, child.count);
                 n4.set(slot, &child.bounds(), r);
             } else {
                 let idx = self.nodes.len();
@@ -260,7 +341,7 @@ impl Bvh4 {
         }
         self.nodes[at] = n4;
         for (k, idx) in interior {
-            self.fill(bin, k, idx);
+            self.fill(bin, prims, k, idx);
         }
     }
 
@@ -289,8 +370,28 @@ impl Bvh4 {
         let mut stack: Stack<(u32, f32)> = Stack::new();
         let mut current = 0u32;
         loop {
-            if current & LEAF_BIT != 0 {
-                let (start, count) = leaf_range(current);
+            if current & PACKED_BIT != 0 && current & LEAF_BIT != 0 {
+                let first = (current & ((1 << BLOCK_BITS) - 1)) as usize;
+                let n = ((current >> BLOCK_BITS) & 0xf) as usize + 1;
+                for block in &self.blocks[first..first + n] {
+                    obs.prim_tested();
+                    let (mut mask, t, u, v) = block.intersect(&lanes, t_min, t_max);
+                    while mask != 0 {
+                        let lane = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        // Lanes in order, each accepted at <= the best so far: the same
+                        // choice among equal distances as the scalar loop makes.
+                        if t[lane] <= t_max {
+                            t_max = t[lane];
+                            best = Some(BvhHit {
+                                slot: block.slot[lane],
+                                hit: PrimHit { t: t[lane], u: u[lane], v: v[lane] },
+                            });
+                        }
+                    }
+                }
+            } else if current & LEAF_BIT != 0 {
+                let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
                 for slot in start..start + count {
                     obs.prim_tested();
                     if let Some(hit) = prims.intersect(slot, ray, t_min, t_max) {
@@ -345,8 +446,16 @@ impl Bvh4 {
         let mut stack: Stack<u32> = Stack::new();
         let mut current = 0u32;
         loop {
-            if current & LEAF_BIT != 0 {
-                let (start, count) = leaf_range(current);
+            if current & PACKED_BIT != 0 && current & LEAF_BIT != 0 {
+                let first = (current & ((1 << BLOCK_BITS) - 1)) as usize;
+                let n = ((current >> BLOCK_BITS) & 0xf) as usize + 1;
+                for block in &self.blocks[first..first + n] {
+                    if block.intersect(&lanes, t_min, t_max).0 != 0 {
+                        return true;
+                    }
+                }
+            } else if current & LEAF_BIT != 0 {
+                let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
                 for slot in start..start + count {
                     if prims.intersect(slot, ray, t_min, t_max).is_some() {
                         return true;
@@ -394,15 +503,23 @@ impl Bvh4 {
                 }
                 let b = n.child_bounds(k);
                 if c & LEAF_BIT != 0 {
-                    let (start, count) = leaf_range(c);
-                    let end = (start + count) as usize;
-                    if end > covered.len() {
-                        return Err(BvhError::BadRange { node: i, start: start as usize, end });
-                    }
-                    for (c, &prim) in
-                        covered[start as usize..end].iter_mut().zip(&bin.prim_indices[start as usize..end])
-                    {
-                        *c += 1;
+                    let slots: Vec<u32> = if c & PACKED_BIT != 0 {
+                        let first = (c & ((1 << BLOCK_BITS) - 1)) as usize;
+                        let n = ((c >> BLOCK_BITS) & 0xf) as usize + 1;
+                        let bad = BvhError::BadRange { node: i, start: first, end: first + n };
+                        let blocks = self.blocks.get(first..first + n).ok_or(bad)?;
+                        blocks.iter().flat_map(|b| b.slot).filter(|s| *s != EMPTY).collect()
+                    } else {
+                        let bad = BvhError::BadChild { node: i, child: c as usize };
+                        let r = self.ranges.get((c & !LEAF_BIT) as usize).ok_or(bad)?;
+                        (r.start..r.start + r.count).collect()
+                    };
+                    for slot in slots {
+                        let Some(cov) = covered.get_mut(slot as usize) else {
+                            return Err(BvhError::BadRange { node: i, start: slot as usize, end: slot as usize + 1 });
+                        };
+                        *cov += 1;
+                        let prim = bin.prim_indices[slot as usize];
                         if !b.contains(&prim_bounds[prim as usize]) {
                             return Err(BvhError::PrimOutside { node: i, prim });
                         }

@@ -68,6 +68,13 @@ impl Primitives for Geometry {
     fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
         self.intersect_shape(&self.shapes[index as usize], ray, t_min, t_max)
     }
+
+    fn triangle(&self, index: u32) -> Option<Triangle> {
+        match self.shapes[index as usize] {
+            Shape::Triangle(t) => Some(t),
+            _ => None,
+        }
+    }
 }
 
 impl Geometry {
@@ -78,8 +85,8 @@ impl Geometry {
         let mut geometry = Geometry { bvh: Bvh::default(), bvh4: Bvh4::default(), shapes: Vec::new(), moving };
         let bounds: Vec<Aabb> = shapes.iter().map(|s| geometry.shape_bounds(s)).collect();
         geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
-        geometry.bvh4 = Bvh4::from_binary(&geometry.bvh);
         geometry.shapes = geometry.bvh.prim_indices.iter().map(|&i| shapes[i as usize]).collect();
+        geometry.bvh4 = Bvh4::from_binary(&geometry.bvh, &geometry);
         geometry
     }
 
