@@ -369,7 +369,10 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if args.target_spp.is_some_and(|t| t == 0 || t > rayscope::render::MAX_SAMPLES) {
         bail!("--target-spp must be 1 to {}", rayscope::render::MAX_SAMPLES);
     }
+    let load_start = std::time::Instant::now();
     let (scene, settings) = load(&args.scene)?;
+    // Loading includes the BVH build, reported apart.
+    let load_ms = (load_start.elapsed().as_secs_f64() - scene.build_time.as_secs_f64()) * 1e3;
     let pool = thread_pool(args.scene.threads)?;
     let total = settings.width as u64 * settings.height as u64;
     let bar = ProgressBar::with_draw_target(
@@ -388,7 +391,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let stats = scene.bvh_stats();
     let summary = |what: &str| {
         format!(
-            "{}: {} triangles, BVH {:.1} ms ({} levels), {what} -> {}",
+            "{}: {} triangles, load {load_ms:.1} ms, BVH {:.1} ms ({} levels), {what} -> {}",
             scene.name,
             scene.triangle_count(),
             scene.build_time.as_secs_f64() * 1e3,

@@ -226,37 +226,52 @@ pub fn render_pass(
 ) -> (RayCounts, bool) {
     let integrator = Integrator::new(scene, settings);
     let still_tan_half = camera.end.is_none().then(|| camera.start.tan_half_fov());
-    let (w, h) = (settings.width, settings.height);
-    let (sums, counts) = film.raw();
-    let results = per_tile(w, h, cancel, progress, |x, y| {
-        let i = (y * w + x) as usize;
-        let (mut sum, first) = (sums[i], counts[i]);
-        let last = first.saturating_add(pass.samples).min(pass.limit.max(first));
-        let mut rays = RayCounts::default();
-        for k in first..last {
-            let (c, r) = sample_pixel(&integrator, camera, still_tan_half, x, y, k, pass, &mut NoRecorder);
-            sum += c;
-            rays.add(r);
-        }
-        (sum, last - first, rays)
-    });
+    let w = settings.width as usize;
+    let total = w * settings.height as usize;
+    let done = AtomicUsize::new(0);
     let (sums, counts) = film.raw_mut();
+    // Bands of whole rows, rendered in place: each task owns its slice of the film, so there
+    // is no intermediate buffer to fill and copy. Every pixel's value depends only on the
+    // pixel, so the split does not change the image.
+    let band = BAND_ROWS * w;
+    let results: Vec<(RayCounts, bool)> = sums
+        .par_chunks_mut(band)
+        .zip(counts.par_chunks_mut(band))
+        .enumerate()
+        .map(|(b, (sums, counts))| {
+            if cancel.load(Ordering::Relaxed) {
+                return (RayCounts::default(), false);
+            }
+            let mut rays = RayCounts::default();
+            for (i, (sum, count)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
+                let p = b * band + i;
+                let (x, y) = ((p % w) as u32, (p / w) as u32);
+                let first = *count;
+                let last = first.saturating_add(pass.samples).min(pass.limit.max(first));
+                for k in first..last {
+                    let (c, r) = sample_pixel(&integrator, camera, still_tan_half, x, y, k, pass, &mut NoRecorder);
+                    *sum += c;
+                    rays.add(r);
+                }
+                *count = last;
+            }
+            let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
+            progress(RenderProgress { done: d, total });
+            (rays, true)
+        })
+        .collect();
     let mut rays = RayCounts::default();
     let mut complete = true;
-    for (t, r) in results {
-        let Some(values) = r else {
-            complete = false;
-            continue;
-        };
-        for ((x, y), (sum, added, r)) in t.pixels().zip(values) {
-            let i = (y * w + x) as usize;
-            sums[i] = sum;
-            counts[i] += added;
-            rays.add(r);
-        }
+    for (r, ok) in results {
+        rays.add(r);
+        complete &= ok;
     }
     (rays, complete)
 }
+
+/// Rows per task in [`render_pass`]: enough work per task to amortise scheduling, few enough
+/// tasks' worth of rows (50 for 800) to balance two or more threads.
+const BAND_ROWS: usize = 16;
 
 /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger, uses.
 #[allow(clippy::too_many_arguments)]
