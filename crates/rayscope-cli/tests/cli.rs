@@ -274,3 +274,37 @@ fn view_screenshot_under_xvfb() {
     // BVH boxes of level 3 (cyan) and leaves (orange).
     assert!(within(400, &|c| near(c, [77, 230, 230])) > 200, "BVH boxes");
 }
+
+#[test]
+fn bench_quick_has_every_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
+    let have_assets = assets.join("dragon.obj").is_file();
+    if !have_assets {
+        eprintln!("NOTICE: bench_quick_has_every_row: shared/scenes is absent; rows that need it are skipped");
+    }
+    let o = Command::new(env!("CARGO_BIN_EXE_rayscope"))
+        .args(["bench", "--quick", "--json", "b.json", "--csv", "b.csv", "--assets"])
+        .arg(&assets)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 11, "the course report's eleven rows");
+    assert!(v["machine"]["cpu"].is_string());
+    for r in rows {
+        let name = r["scene"].as_str().unwrap();
+        assert!(table.contains(name.trim()), "{name} in the Markdown table");
+        for key in ["triangles", "build_ms", "levels", "render_ms", "mrays_per_s", "report_ms"] {
+            assert!(r.get(key).is_some(), "{name}: {key}");
+        }
+        if have_assets {
+            assert!(r["render_ms"].as_f64().unwrap() > 0.0 && r["mrays_per_s"].as_f64().unwrap() > 0.0, "{name}");
+        }
+    }
+    let csv = std::fs::read_to_string(dir.path().join("b.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 12);
+}
