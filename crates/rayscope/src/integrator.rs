@@ -7,7 +7,7 @@ use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
 use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent};
 use crate::render::RenderSettings;
-use crate::sampler::{PixelSampler, stratum_1d, stratum_2d};
+use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Scene, SurfaceInteraction};
 
 /// Counts of rays cast, for throughput figures.
@@ -145,8 +145,9 @@ impl<'a> Integrator<'a> {
         let was_split = ctx.glossy_split;
         ctx.glossy_split = true;
         let mut sum = Color::ZERO;
+        let strata = Strata2::new(n);
         for i in 0..n {
-            let u = stratum_2d(i, n, ctx.sampler.next_2d());
+            let u = strata.sample(i, ctx.sampler.next_2d());
             let mut dir = sample_phong_lobe(mirror, exponent.max(0.0), u);
             let below = dir.dot(si.geo_normal);
             if below <= 0.0 {
@@ -173,12 +174,13 @@ impl<'a> Integrator<'a> {
             }
             let segment = matches!(light, crate::light::Light::Segment { .. });
             let sampler = light.sampler(si.point);
+            let strata = Strata2::new(n);
             let mut acc = Color::ZERO;
             for k in 0..n {
                 let u = if segment {
                     Vec2::new(stratum_1d(k, n, ctx.sampler.next_f32()), 0.5)
                 } else {
-                    stratum_2d(k, n, ctx.sampler.next_2d())
+                    strata.sample(k, ctx.sampler.next_2d())
                 };
                 let ls = sampler.sample(u);
                 acc += self.shade_sample(ray, si, i, &ls, ctx);

@@ -172,9 +172,30 @@ pub fn grid_dims(n: u32) -> (u32, u32) {
 /// Sample `i` of `n` stratified over `[0,1)^2`: a jittered cell of the [`grid_dims`] grid.
 #[inline]
 pub fn stratum_2d(i: u32, n: u32, jitter: Vec2) -> Vec2 {
-    let (a, b) = grid_dims(n);
-    let (x, y) = (i % a, (i / a) % b);
-    Vec2::new((x as f32 + jitter.x) / a as f32, (y as f32 + jitter.y) / b as f32)
+    Strata2::new(n).sample(i, jitter)
+}
+
+/// The [`grid_dims`] grid of `n` strata, computed once for a loop over its samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Strata2 {
+    a: u32,
+    b: u32,
+    inv: Vec2,
+}
+
+impl Strata2 {
+    /// The grid for `n` samples.
+    pub fn new(n: u32) -> Strata2 {
+        let (a, b) = grid_dims(n);
+        Strata2 { a, b, inv: Vec2::new(1.0 / a as f32, 1.0 / b as f32) }
+    }
+
+    /// Sample `i`: cell `i` of the grid, jittered by `jitter` in `[0,1)^2`.
+    #[inline]
+    pub fn sample(&self, i: u32, jitter: Vec2) -> Vec2 {
+        let (x, y) = (i % self.a, (i / self.a) % self.b);
+        (Vec2::new(x as f32, y as f32) + jitter) * self.inv
+    }
 }
 
 /// Sample `i` of `n` stratified over `[0,1)`.
