@@ -158,7 +158,7 @@ struct SettingsArgs {
     interpolate_normals: bool,
     /// Texture filtering [default: bilinear].
     #[arg(long, value_enum)]
-    texture_filter: Option<FilterArg>,
+    texture_filter: Option<TextureFilter>,
     /// Samples (camera rays) per pixel, for anti-aliasing and motion blur [default: 1]; with
     /// --progressive, samples per frame.
     #[arg(long, value_name = "N")]
@@ -171,7 +171,7 @@ struct SettingsArgs {
     gloss_samples: Option<u32>,
     /// Pixel filter for anti-aliasing [default: box].
     #[arg(long, value_enum)]
-    filter: Option<PixelFilterArg>,
+    filter: Option<PixelFilter>,
     /// Seed of the random numbers [default: 0].
     #[arg(long)]
     seed: Option<u64>,
@@ -179,13 +179,6 @@ struct SettingsArgs {
     /// optionally followed by a distance: `RX,RY,RZ[,DIST]`.
     #[arg(long, value_name = "RX,RY,RZ[,DIST]", value_parser = parse_camera_end)]
     camera_end: Option<CameraEnd>,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum PixelFilterArg {
-    Box,
-    Tent,
-    Gaussian,
 }
 
 /// The `--camera-end` pose: trackball rotation and, optionally, distance.
@@ -206,22 +199,6 @@ fn parse_camera_end(s: &str) -> Result<CameraEnd, String> {
     Ok(CameraEnd { rotation: Vec3::new(v[0], v[1], v[2]), distance: v.get(3).copied() })
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum FilterArg {
-    Nearest,
-    Bilinear,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum AovArg {
-    Depth,
-    Position,
-    Normal,
-    Albedo,
-    PrimId,
-    NodesVisited,
-}
-
 #[derive(Args)]
 struct RenderArgs {
     #[command(flatten)]
@@ -234,7 +211,7 @@ struct RenderArgs {
     srgb: bool,
     /// Write this buffer instead of colour (needs .exr or .pfm).
     #[arg(long, value_enum)]
-    aov: Option<AovArg>,
+    aov: Option<Aov>,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -326,19 +303,8 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.light_samples = f.light_samples.unwrap_or(s.light_samples);
     s.gloss_samples = f.gloss_samples.unwrap_or(s.gloss_samples);
     s.seed = f.seed.unwrap_or(s.seed);
-    if let Some(p) = f.filter {
-        s.filter = match p {
-            PixelFilterArg::Box => PixelFilter::Box,
-            PixelFilterArg::Tent => PixelFilter::Tent,
-            PixelFilterArg::Gaussian => PixelFilter::Gaussian,
-        };
-    }
-    if let Some(t) = f.texture_filter {
-        s.texture_filter = match t {
-            FilterArg::Nearest => TextureFilter::Nearest,
-            FilterArg::Bilinear => TextureFilter::Bilinear,
-        };
-    }
+    s.filter = f.filter.unwrap_or(s.filter);
+    s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
     s.validate()?;
     let mut scene = scene;
     if let Some(end) = &f.camera_end {
@@ -400,14 +366,6 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         )
     };
     if let Some(aov) = args.aov {
-        let aov = match aov {
-            AovArg::Depth => Aov::Depth,
-            AovArg::Position => Aov::Position,
-            AovArg::Normal => Aov::Normal,
-            AovArg::Albedo => Aov::Albedo,
-            AovArg::PrimId => Aov::PrimId,
-            AovArg::NodesVisited => Aov::NodesVisited,
-        };
         let start = std::time::Instant::now();
         let img = pool.install(|| render_aov(&scene, &settings, &scene.camera(), aov, &progress));
         bar.finish_and_clear();

@@ -156,20 +156,7 @@ impl Embree {
 
     fn intersect(&self, r: &Ray, coherent: bool) -> Option<(u32, f32)> {
         let mut rh = sys::RTCRayHit {
-            ray: sys::RTCRay {
-                org_x: r.origin.x,
-                org_y: r.origin.y,
-                org_z: r.origin.z,
-                tnear: r.t.min,
-                dir_x: r.dir.x,
-                dir_y: r.dir.y,
-                dir_z: r.dir.z,
-                time: 0.0,
-                tfar: r.t.max,
-                mask: u32::MAX,
-                id: 0,
-                flags: 0,
-            },
+            ray: rtc_ray(r),
             hit: sys::RTCHit {
                 Ng_x: 0.0,
                 Ng_y: 0.0,
@@ -188,23 +175,27 @@ impl Embree {
     }
 
     fn occluded(&self, r: &Ray) -> bool {
-        let mut ray = sys::RTCRay {
-            org_x: r.origin.x,
-            org_y: r.origin.y,
-            org_z: r.origin.z,
-            tnear: r.t.min,
-            dir_x: r.dir.x,
-            dir_y: r.dir.y,
-            dir_z: r.dir.z,
-            time: 0.0,
-            tfar: r.t.max,
-            mask: u32::MAX,
-            id: 0,
-            flags: 0,
-        };
+        let mut ray = rtc_ray(r);
         let mut ctx = embree::IntersectContext::incoherent();
         unsafe { sys::rtcOccluded1(self.scene, &mut ctx, &mut ray) };
         ray.tfar < 0.0
+    }
+}
+
+fn rtc_ray(r: &Ray) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: r.origin.x,
+        org_y: r.origin.y,
+        org_z: r.origin.z,
+        tnear: r.t.min,
+        dir_x: r.dir.x,
+        dir_y: r.dir.y,
+        dir_z: r.dir.z,
+        time: 0.0,
+        tfar: r.t.max,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
     }
 }
 

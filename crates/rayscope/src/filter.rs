@@ -12,6 +12,7 @@ use crate::math::Vec2;
 /// A pixel filter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum PixelFilter {
     /// Uniform over the pixel (radius 0.5).
     #[default]

@@ -72,6 +72,7 @@ pub struct MaterialDesc {
 /// How textures are looked up.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum TextureFilter {
     /// The texel under the point.
     Nearest,

@@ -343,6 +343,7 @@ pub fn trace_pixel<R: RayRecorder>(
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Aov {
     /// Distance along the (unit-length) camera ray; NaN where it hits nothing.
     Depth,

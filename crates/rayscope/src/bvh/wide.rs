@@ -163,6 +163,19 @@ impl Tri4 {
     }
 }
 
+/// The blocks of a packed leaf reference: `first..first + count` in [`Bvh4::blocks`].
+#[inline(always)]
+fn packed_blocks(child: u32) -> std::ops::Range<usize> {
+    let first = (child & ((1 << BLOCK_BITS) - 1)) as usize;
+    first..first + ((child >> BLOCK_BITS) & 0xf) as usize + 1
+}
+
+/// Whether a child reference is a packed leaf.
+#[inline(always)]
+fn is_packed(child: u32) -> bool {
+    child & (LEAF_BIT | PACKED_BIT) == LEAF_BIT | PACKED_BIT
+}
+
 /// Where a range leaf's primitives are: slots `start..start + count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LeafRange {
@@ -370,10 +383,8 @@ impl Bvh4 {
         let mut stack: Stack<(u32, f32)> = Stack::new();
         let mut current = 0u32;
         loop {
-            if current & PACKED_BIT != 0 && current & LEAF_BIT != 0 {
-                let first = (current & ((1 << BLOCK_BITS) - 1)) as usize;
-                let n = ((current >> BLOCK_BITS) & 0xf) as usize + 1;
-                for block in &self.blocks[first..first + n] {
+            if is_packed(current) {
+                for block in &self.blocks[packed_blocks(current)] {
                     obs.prim_tested();
                     let (mut mask, t, u, v) = block.intersect(&lanes, t_min, t_max);
                     while mask != 0 {
@@ -446,10 +457,8 @@ impl Bvh4 {
         let mut stack: Stack<u32> = Stack::new();
         let mut current = 0u32;
         loop {
-            if current & PACKED_BIT != 0 && current & LEAF_BIT != 0 {
-                let first = (current & ((1 << BLOCK_BITS) - 1)) as usize;
-                let n = ((current >> BLOCK_BITS) & 0xf) as usize + 1;
-                for block in &self.blocks[first..first + n] {
+            if is_packed(current) {
+                for block in &self.blocks[packed_blocks(current)] {
                     if block.intersect(&lanes, t_min, t_max).0 != 0 {
                         return true;
                     }
@@ -503,11 +512,10 @@ impl Bvh4 {
                 }
                 let b = n.child_bounds(k);
                 if c & LEAF_BIT != 0 {
-                    let slots: Vec<u32> = if c & PACKED_BIT != 0 {
-                        let first = (c & ((1 << BLOCK_BITS) - 1)) as usize;
-                        let n = ((c >> BLOCK_BITS) & 0xf) as usize + 1;
-                        let bad = BvhError::BadRange { node: i, start: first, end: first + n };
-                        let blocks = self.blocks.get(first..first + n).ok_or(bad)?;
+                    let slots: Vec<u32> = if is_packed(c) {
+                        let range = packed_blocks(c);
+                        let bad = BvhError::BadRange { node: i, start: range.start, end: range.end };
+                        let blocks = self.blocks.get(range).ok_or(bad)?;
                         blocks.iter().flat_map(|b| b.slot).filter(|s| *s != EMPTY).collect()
                     } else {
                         let bad = BvhError::BadChild { node: i, child: c as usize };
