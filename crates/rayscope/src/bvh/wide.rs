@@ -108,15 +108,15 @@ pub struct Tri4 {
 const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
 
 impl Tri4 {
-    fn pack(tris: &[(u32, Triangle)]) -> Tri4 {
+    fn pack(tris: impl Iterator<Item = (u32, Triangle)>) -> Tri4 {
         let mut t = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], slot: [EMPTY; 4] };
-        for (lane, (slot, tri)) in tris.iter().enumerate() {
+        for (lane, (slot, tri)) in tris.take(4).enumerate() {
             for axis in 0..3 {
                 t.v0[axis][lane] = tri.v0[axis];
                 t.e1[axis][lane] = tri.e1[axis];
                 t.e2[axis][lane] = tri.e2[axis];
             }
-            t.slot[lane] = *slot;
+            t.slot[lane] = slot;
         }
         t
     }
@@ -309,38 +309,44 @@ impl Bvh4 {
     /// A leaf reference for slots `start..start + count`: packed blocks when every primitive
     /// is a static triangle and there are few enough, else a range.
     fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, start: u32, count: u32) -> u32 {
-        let tris: Option<Vec<(u32, Triangle)>> =
-            (start..start + count).map(|s| prims.triangle(s).map(|t| (s, t))).collect();
-        match tris {
-            Some(tris) if count.div_ceil(4) <= MAX_BLOCKS && (self.blocks.len() as u32) < (1 << BLOCK_BITS) => {
-                let first = self.blocks.len() as u32;
-                self.blocks.extend(tris.chunks(4).map(Tri4::pack));
-                let n = self.blocks.len() as u32 - first;
-                LEAF_BIT | PACKED_BIT | ((n - 1) << BLOCK_BITS) | first
+        let packable = count.div_ceil(4) <= MAX_BLOCKS
+            && (self.blocks.len() as u32) < (1 << BLOCK_BITS)
+            && (start..start + count).all(|s| prims.triangle(s).is_some());
+        if packable {
+            let first = self.blocks.len() as u32;
+            for chunk in (start..start + count).step_by(4) {
+                let end = (chunk + 4).min(start + count);
+                self.blocks.push(Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t)))));
             }
-            _ => {
-                self.ranges.push(LeafRange { start, count });
-                LEAF_BIT | (self.ranges.len() as u32 - 1)
-            }
+            let n = self.blocks.len() as u32 - first;
+            LEAF_BIT | PACKED_BIT | ((n - 1) << BLOCK_BITS) | first
+        } else {
+            self.ranges.push(LeafRange { start, count });
+            LEAF_BIT | (self.ranges.len() as u32 - 1)
         }
     }
 
     fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, prims: &P, bin_index: usize, at: usize) {
         let node = &bin.nodes[bin_index];
-        let mut kids = vec![bin_index + 1, node.start as usize];
-        while kids.len() < 4 {
+        // The children, opened largest first until there are four (no allocation: this runs
+        // once per node of the collapsed tree).
+        let mut kids = [bin_index + 1, node.start as usize, 0, 0];
+        let mut len = 2;
+        while len < 4 {
             let widest =
-                kids.iter().enumerate().filter(|(_, k)| !bin.nodes[**k].is_leaf()).max_by(|a, b| {
+                kids[..len].iter().enumerate().filter(|(_, k)| !bin.nodes[**k].is_leaf()).max_by(|a, b| {
                     bin.nodes[*a.1].bounds().half_area().total_cmp(&bin.nodes[*b.1].bounds().half_area())
                 });
             let Some((i, &k)) = widest else { break };
             let n = &bin.nodes[k];
             kids[i] = k + 1;
-            kids.push(n.start as usize);
+            kids[len] = n.start as usize;
+            len += 1;
         }
         let mut n4 = Node4::empty();
-        let mut interior = Vec::new();
-        for (slot, &k) in kids.iter().enumerate() {
+        let mut interior = [(0usize, 0usize); 4];
+        let mut n_interior = 0;
+        for (slot, &k) in kids[..len].iter().enumerate() {
             let child = &bin.nodes[k];
             if child.is_leaf() {
                 let r = self.leaf(prims, child.start, child.count);
@@ -349,11 +355,12 @@ impl Bvh4 {
                 let idx = self.nodes.len();
                 self.nodes.push(Node4::empty());
                 n4.set(slot, &child.bounds(), idx as u32);
-                interior.push((k, idx));
+                interior[n_interior] = (k, idx);
+                n_interior += 1;
             }
         }
         self.nodes[at] = n4;
-        for (k, idx) in interior {
+        for &(k, idx) in &interior[..n_interior] {
             self.fill(bin, prims, k, idx);
         }
     }
