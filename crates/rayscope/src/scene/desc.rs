@@ -280,7 +280,7 @@ struct Loaded {
     materials: Vec<(Material, Option<PathBuf>)>,
 }
 
-fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Loaded> {
+fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut TextureCache) -> Result<Loaded> {
     let file = match (&d.path, &d.asset, &d.vertices) {
         (Some(p), None, None) => Some(ctx.base_dir.join(p)),
         (None, Some(a), None) => {
@@ -349,12 +349,11 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str) -> Result<Load
         return Err(bad("face_materials must give a valid material for every face".into()));
     }
     let mut materials = Vec::new();
-    let mut unused = TextureCache::default();
     for md in &d.materials {
         let mut m = Material::default();
-        let texture = md.texture.as_ref().map(|t| ctx.base_dir.join(t));
-        apply_override(&mut m, &MaterialDesc { texture: None, ..md.clone() }, &mut unused, &ctx.base_dir)?;
-        materials.push((m, texture));
+        // Textures load here, relative to the scene file, into the scene's cache.
+        apply_override(&mut m, md, textures, &ctx.base_dir)?;
+        materials.push((m, None));
     }
     let mesh = Mesh {
         name: d.name.clone().unwrap_or_else(|| "mesh".into()),
@@ -379,7 +378,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     let mut meshes = Vec::new();
     for d in &desc.meshes {
         let inline = d.vertices.is_some();
-        let loaded = load_mesh_source(d, ctx, &name)?;
+        let loaded = load_mesh_source(d, ctx, &name, &mut textures)?;
         let base = materials.len() as u32;
         for (mut m, tex) in loaded.materials {
             if let Some(t) = tex {
