@@ -228,7 +228,7 @@ fn view_screenshot_under_xvfb() {
     std::fs::create_dir(&runtime).unwrap();
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1600x1000x24", env!("CARGO_BIN_EXE_rayscope"), "view", "cornell-box"])
-        .args(["--screenshot", "shot.png", "--debug-pixel", "400,400", "--bvh-level", "3", "--frames", "2"])
+        .args(["--screenshot", "shot.png", "--debug-pixel", "400,400", "--bvh-level", "2", "--frames", "2"])
         .current_dir(dir.path())
         .env("WGPU_BACKEND", "vulkan")
         .env("XDG_RUNTIME_DIR", &runtime)
@@ -271,7 +271,7 @@ fn view_screenshot_under_xvfb() {
     assert!(within(150, &|c| near(c, [255, 89, 217])) > 20, "hit triangle outline near the centre");
     assert!(within(120, &|c| near(c, [51, 102, 255])) > 5, "hit normal at the centre");
     assert!(within(400, &|c| near(c, [51, 255, 51])) > 20, "shadow ray");
-    // BVH boxes of level 3 (cyan) and leaves (orange).
+    // BVH boxes of level 2 (cyan) and leaves (orange).
     assert!(within(400, &|c| near(c, [77, 230, 230])) > 200, "BVH boxes");
 }
 

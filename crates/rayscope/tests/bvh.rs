@@ -55,8 +55,12 @@ fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: imp
     let prims = Ordered { shapes, bvh: &bvh };
     let bvh4 = Bvh4::from_binary(&bvh, &prims);
     bvh4.validate(&bvh, bounds).unwrap();
+    // The same tree traversed by the baseline code: identical hits whatever the CPU has.
+    let portable = bvh4.clone().portable();
     let mut hits = 0;
     for ray in rays {
+        assert_eq!(portable.intersect(&ray, &prims), bvh4.intersect(&ray, &prims), "SIMD levels, {ray:?}");
+        assert_eq!(portable.occluded(&ray, &prims), bvh4.occluded(&ray, &prims), "SIMD levels, {ray:?}");
         let got = bvh.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
         let wide = bvh4.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
         assert_eq!(got.map(|g| g.1.t), wide.map(|w| w.1.t), "binary and 4-wide BVH disagree on {ray:?}");

@@ -19,6 +19,9 @@ pub struct BuildParams {
     pub intersection_cost: f32,
     /// Subtrees with more primitives than this are built on separate rayon tasks.
     pub parallel_threshold: usize,
+    /// Primitives intersected together in one SIMD test: a leaf costs one intersection per
+    /// started block of this many, as the 4-wide BVH's packed leaves ([`super::wide::Tri4`]) do.
+    pub block_size: usize,
 }
 
 impl Default for BuildParams {
@@ -26,9 +29,10 @@ impl Default for BuildParams {
         BuildParams {
             bins: 16,
             max_leaf_size: 8,
-            traversal_cost: 1.0,
+            traversal_cost: 1.5,
             intersection_cost: 1.0,
             parallel_threshold: 4096,
+            block_size: 4,
         }
     }
 }
@@ -91,7 +95,7 @@ fn build_node(prims: &mut [BuildPrim], offset: u32, depth: usize, params: &Build
     }
     let split = find_split(prims, &bounds, &centroids, params);
     let bins = params.bins.min(n.next_power_of_two().max(4));
-    let leaf_cost = params.intersection_cost * n as f32;
+    let leaf_cost = params.intersection_cost * blocks(n, params) as f32;
     let mid = match split {
         Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &centroids, &s, bins),
         None if n > params.max_leaf_size => median_split(prims, &centroids),
@@ -121,6 +125,12 @@ fn subtree(prims: &mut [BuildPrim], offset: u32, depth: usize, params: &BuildPar
     let mut out = Vec::with_capacity(2 * prims.len());
     build_node(prims, offset, depth, params, &mut out);
     out
+}
+
+/// Intersection blocks a leaf of `n` primitives takes.
+#[inline(always)]
+fn blocks(n: usize, params: &BuildParams) -> usize {
+    n.div_ceil(params.block_size.max(1))
 }
 
 #[inline]
@@ -176,7 +186,9 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
                 continue;
             }
             let cost = params.traversal_cost
-                + params.intersection_cost * (acc.half_area() * cnt as f32 + right_area[i] * right_count[i] as f32)
+                + params.intersection_cost
+                    * (acc.half_area() * blocks(cnt as usize, params) as f32
+                        + right_area[i] * blocks(right_count[i] as usize, params) as f32)
                     / parent_area;
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split { axis, bin: i, cost });

@@ -12,6 +12,35 @@ use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{PrimHit, Triangle};
 use crate::ray::Ray;
 
+/// The instruction set a traversal is compiled for. Both give bit-identical hits: the AVX2
+/// variant is the same code compiled with more registers, three-operand instructions and
+/// BMI, chosen at run time so the binary still runs on any x86-64.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SimdLevel {
+    /// The target's baseline (SSE2 on x86-64, NEON on AArch64, scalar elsewhere).
+    #[default]
+    Portable,
+    /// x86-64 with AVX2, FMA, BMI1/2 and LZCNT (x86-64-v3).
+    Avx2,
+}
+
+impl SimdLevel {
+    /// The best level this CPU supports.
+    pub fn detect() -> SimdLevel {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("lzcnt")
+            && std::arch::is_x86_feature_detected!("popcnt")
+        {
+            return SimdLevel::Avx2;
+        }
+        SimdLevel::Portable
+    }
+}
+
 /// Marks an unused child slot.
 pub const EMPTY: u32 = u32::MAX;
 /// Set on a child reference that is a leaf.
@@ -200,6 +229,9 @@ pub struct Bvh4 {
     /// The other leaves (spheres, moving shapes, mixes, oversized leaves): slot ranges whose
     /// primitives are intersected one by one through [`Primitives`].
     pub ranges: Vec<LeafRange>,
+    /// The traversal variant: [`SimdLevel::detect`] when built. Private so that it can only
+    /// name a level the CPU has; [`Bvh4::portable`] selects the baseline.
+    simd: SimdLevel,
 }
 
 /// Deepest traversal stack: three pushes per level of a tree at most [`super::MAX_DEPTH`] deep.
@@ -290,11 +322,34 @@ impl RayLanes {
 }
 
 impl Bvh4 {
+    /// Ask for a child's memory as soon as its box is hit, so that the loads overlap the
+    /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic).
+    #[inline(always)]
+    fn prefetch(&self, child: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let (p, lines): (*const i8, usize) = if is_packed(child) {
+                (self.blocks.as_ptr().wrapping_add(packed_blocks(child).start).cast(), 3)
+            } else if child & LEAF_BIT == 0 {
+                (self.nodes.as_ptr().wrapping_add(child as usize).cast(), 2)
+            } else {
+                return;
+            };
+            for line in 0..lines {
+                // SAFETY: a prefetch is a hint and never faults, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = child;
+    }
+
     /// Collapse a binary BVH: each node takes its binary node's children and keeps opening
     /// the largest interior one (by surface area) until it has four. Leaves of static
     /// triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
     pub fn from_binary<P: Primitives + ?Sized>(bin: &Bvh, prims: &P) -> Bvh4 {
-        let mut out = Bvh4::default();
+        let mut out = Bvh4 { simd: SimdLevel::detect(), ..Bvh4::default() };
         let Some(root) = bin.nodes.first() else { return out };
         out.nodes.push(Node4::empty());
         if root.is_leaf() {
@@ -304,6 +359,17 @@ impl Bvh4 {
             out.fill(bin, prims, 0, 0);
         }
         out
+    }
+
+    /// The traversal variant in use.
+    pub fn simd_level(&self) -> SimdLevel {
+        self.simd
+    }
+
+    /// The same tree traversed by the baseline code (to compare it with the detected one).
+    pub fn portable(mut self) -> Bvh4 {
+        self.simd = SimdLevel::Portable;
+        self
     }
 
     /// A leaf reference for slots `start..start + count`: packed blocks when every primitive
@@ -372,7 +438,34 @@ impl Bvh4 {
     }
 
     /// [`Bvh4::intersect`], reporting the traversal to `obs`.
+    #[inline]
     pub fn intersect_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd == SimdLevel::Avx2 {
+            // SAFETY: `simd` is Avx2 only where the CPU has those features (see the field).
+            return unsafe { self.intersect_avx2(ray, prims, obs) };
+        }
+        self.intersect_impl(ray, prims, obs)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn intersect_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        self.intersect_impl(ray, prims, obs)
+    }
+
+    #[inline(always)]
+    fn intersect_impl<P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         ray: &Ray,
         prims: &P,
@@ -430,6 +523,7 @@ impl Bvh4 {
                     for (i, (&child, &d)) in node.child.iter().zip(&near).enumerate() {
                         if mask & (1 << i) != 0 {
                             order[k] = (child, d);
+                            self.prefetch(child);
                             k += 1;
                         }
                     }
@@ -455,7 +549,24 @@ impl Bvh4 {
     }
 
     /// Whether anything blocks `ray` within its interval; stops at the first hit found.
+    #[inline]
     pub fn occluded<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd == SimdLevel::Avx2 {
+            // SAFETY: `simd` is Avx2 only where the CPU has those features (see the field).
+            return unsafe { self.occluded_avx2(ray, prims) };
+        }
+        self.occluded_impl(ray, prims)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        self.occluded_impl(ray, prims)
+    }
+
+    #[inline(always)]
+    fn occluded_impl<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return false;
         }
@@ -486,6 +597,7 @@ impl Bvh4 {
                     mask &= mask - 1;
                     while mask != 0 {
                         let i = mask.trailing_zeros() as usize;
+                        self.prefetch(node.child[i]);
                         stack.push(node.child[i]);
                         mask &= mask - 1;
                     }
