@@ -3,7 +3,8 @@
 mod common;
 
 use common::{Rng, assets, builtin_scene};
-use rayscope::bvh::{BuildParams, Bvh, Bvh4, Primitives};
+use rayscope::bvh::wide::{Lanes, NodeWidth};
+use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Primitives, WideBvh};
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use rayscope::math::Vec3A;
 use rayscope::ray::Ray;
@@ -46,31 +47,24 @@ fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
     check_with(shapes, &bounds, &BuildParams::default(), rays)
 }
 
-/// [`check`] with these build parameters: the binary BVH and the 4-wide BVH collapsed from it
-/// both against brute force, and against each other (the 4-wide one runs the SIMD slab test,
-/// the binary one the scalar one).
+/// [`check`] with these build parameters: the binary BVH and the 4- and 8-wide BVHs collapsed
+/// from it, each against brute force and against each other (the wide ones run the SIMD slab
+/// tests, the binary one the scalar one).
 fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: impl Iterator<Item = Ray>) -> usize {
     let bvh = Bvh::build(bounds, params);
     bvh.validate(bounds).unwrap();
     let prims = Ordered { shapes, bvh: &bvh };
     let bvh4 = Bvh4::from_binary(&bvh, &prims);
     bvh4.validate(&bvh, bounds).unwrap();
-    // The same tree traversed by the baseline code: identical hits whatever the CPU has.
-    let portable = bvh4.clone().portable();
+    let bvh8 = Bvh8::from_binary(&bvh, &prims);
+    bvh8.validate(&bvh, bounds).unwrap();
+    // The same trees traversed by the baseline code: identical hits whatever the CPU has.
+    let (portable4, portable8) = (bvh4.clone().portable(), bvh8.clone().portable());
     let mut hits = 0;
     for ray in rays {
-        assert_eq!(portable.intersect(&ray, &prims), bvh4.intersect(&ray, &prims), "SIMD levels, {ray:?}");
-        assert_eq!(portable.occluded(&ray, &prims), bvh4.occluded(&ray, &prims), "SIMD levels, {ray:?}");
         let got = bvh.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
-        let wide = bvh4.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
-        assert_eq!(got.map(|g| g.1.t), wide.map(|w| w.1.t), "binary and 4-wide BVH disagree on {ray:?}");
-        if let (Some(g), Some(w)) = (got, wide) {
-            // The packed (SIMD) triangle test returns the scalar test's exact barycentrics.
-            let scalar = shapes[w.0 as usize].intersect(&ray, ray.t.min, ray.t.max).unwrap();
-            assert_eq!((scalar.t, scalar.u, scalar.v), (w.1.t, w.1.u, w.1.v), "{ray:?}");
-            assert!(g.0 == w.0 || g.1.t == w.1.t);
-        }
-        assert_eq!(bvh4.occluded(&ray, &prims), got.is_some(), "4-wide any-hit, ray {ray:?}");
+        check_wide(&bvh4, &portable4, &prims, shapes, &ray, got);
+        check_wide(&bvh8, &portable8, &prims, shapes, &ray, got);
         let want = brute_closest(shapes, &ray);
         match (got, want) {
             (None, None) => {}
@@ -86,6 +80,31 @@ fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: imp
         assert_eq!(bvh.occluded(&ray, &prims), want.is_some(), "any-hit, ray {ray:?}");
     }
     hits
+}
+
+/// A wide BVH (`W` children) agrees with its portable twin, with the binary BVH's hit `got`,
+/// and with the scalar triangle test's barycentrics.
+fn check_wide<const W: usize>(
+    wide: &WideBvh<W>,
+    portable: &WideBvh<W>,
+    prims: &Ordered,
+    shapes: &[Shape],
+    ray: &Ray,
+    got: Option<(u32, PrimHit)>,
+) where
+    Lanes<W>: NodeWidth<W>,
+{
+    assert_eq!(portable.intersect(ray, prims), wide.intersect(ray, prims), "{W}-wide SIMD levels, {ray:?}");
+    assert_eq!(portable.occluded(ray, prims), wide.occluded(ray, prims), "{W}-wide SIMD levels, {ray:?}");
+    let hit = wide.intersect(ray, prims).map(|h| (prims.bvh.prim_indices[h.slot as usize], h.hit));
+    assert_eq!(got.map(|g| g.1.t), hit.map(|w| w.1.t), "binary and {W}-wide BVH disagree on {ray:?}");
+    if let (Some(g), Some(w)) = (got, hit) {
+        // The packed (SIMD) triangle test returns the scalar test's exact barycentrics.
+        let scalar = shapes[w.0 as usize].intersect(ray, ray.t.min, ray.t.max).unwrap();
+        assert_eq!((scalar.t, scalar.u, scalar.v), (w.1.t, w.1.u, w.1.v), "{ray:?}");
+        assert!(g.0 == w.0 || g.1.t == w.1.t);
+    }
+    assert_eq!(wide.occluded(ray, prims), got.is_some(), "{W}-wide any-hit, ray {ray:?}");
 }
 
 fn random_soup(rng: &mut Rng, n: usize, size: f32) -> Vec<Shape> {
@@ -145,6 +164,7 @@ fn degenerate_inputs() {
     bvh.validate(&[]).unwrap();
     assert!(bvh.nodes.is_empty());
     assert!(Bvh4::from_binary(&bvh, &Ordered { shapes: &[], bvh: &bvh }).nodes.is_empty());
+    assert!(Bvh8::from_binary(&bvh, &Ordered { shapes: &[], bvh: &bvh }).nodes.is_empty());
     check(&[], rays(&mut rng));
     // One triangle.
     check(&[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))], rays(&mut rng));

@@ -20,7 +20,7 @@ pub struct BuildParams {
     /// Subtrees with more primitives than this are built on separate rayon tasks.
     pub parallel_threshold: usize,
     /// Primitives intersected together in one SIMD test: a leaf costs one intersection per
-    /// started block of this many, as the 4-wide BVH's packed leaves ([`super::wide::Tri4`]) do.
+    /// started block of this many, as the wide BVHs' packed leaves ([`super::wide::Tri4`]) are.
     pub block_size: usize,
 }
 

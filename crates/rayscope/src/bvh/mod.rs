@@ -16,7 +16,7 @@ pub use build::BuildParams;
 pub use node::BvhNode;
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
-pub use wide::Bvh4;
+pub use wide::{Bvh4, Bvh8, WideBvh};
 
 use crate::geometry::PrimHit;
 use crate::ray::Ray;

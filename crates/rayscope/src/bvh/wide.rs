@@ -1,15 +1,19 @@
-//! A 4-wide BVH collapsed from the binary one, for rendering: each node holds its four
-//! children's boxes as structure-of-arrays, so one SIMD slab test (`wide::f32x4`: SSE on
-//! x86-64, NEON on AArch64, scalar elsewhere) checks all four. It halves the depth of the
-//! tree, and with it the loop iterations, the stack traffic and the dependent loads per ray.
-//! The binary BVH stays for the debugger's level view.
+//! Wide BVHs collapsed from the binary one, for rendering: each node holds its `W` children's
+//! boxes as structure-of-arrays, so one SIMD slab test checks them all. Rendering uses the
+//! 8-wide tree ([`Bvh8`]): on x86-64 with AVX2 its nodes are tested with one 256-bit
+//! instruction per step (chosen at run time), elsewhere with the portable `wide` vectors
+//! (two SSE or NEON halves); the 4-wide tree ([`Bvh4`]) is the same code at half the width,
+//! kept to measure one against the other. Wider nodes mean fewer levels, and with them fewer
+//! loop iterations, stack entries and dependent loads per ray. The binary BVH stays for the
+//! debugger's level view.
 
-use wide::f32x4;
+use wide::{f32x4, f32x8};
 
 use super::{Bvh, BvhError, BvhHit, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::Aabb;
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{PrimHit, Triangle};
+use crate::math::Vec3A;
 use crate::ray::Ray;
 
 /// The instruction set a traversal is compiled for. Both give bit-identical hits: the AVX2
@@ -52,69 +56,51 @@ const BLOCK_BITS: u32 = 26;
 /// Most blocks one packed leaf holds (4 bits of count - 1); larger leaves use ranges.
 const MAX_BLOCKS: u32 = 16;
 
-/// One node: four child boxes and four child references, 128 bytes (two cache lines).
+/// Rows of [`WideNode::bounds`]: lower x, y, z, then upper x, y, z.
+const ROWS: usize = 6;
+
+/// One node: `W` child boxes and `W` child references; 128 bytes (two cache lines) at
+/// `W = 4`, 256 bytes (four) at `W = 8`.
 ///
-/// | field | bytes | meaning |
+/// | field | bytes (W = 4 / W = 8) | meaning |
 /// |---|---|---|
-/// | `min_x`, `min_y`, `min_z` | 0..48 | lower corners of the four child boxes, by axis |
-/// | `max_x`, `max_y`, `max_z` | 48..96 | upper corners, by axis |
-/// | `child` | 96..112 | per child: [`EMPTY`]; a node index; a packed leaf: bits 31 and 30 set, bits 26..30 the block count - 1, bits 0..26 the first [`Tri4`] block; or a range leaf: bit 31 set, bits 0..30 an index into [`Bvh4::ranges`] |
-/// | padding | 112..128 | keeps nodes aligned to cache lines |
+/// | `bounds[0..3]` | 0..48 / 0..96 | lower x, y, z corners of the `W` child boxes, one row per axis |
+/// | `bounds[3..6]` | 48..96 / 96..192 | upper x, y, z corners |
+/// | `child` | 96..112 / 192..224 | per child: [`EMPTY`]; a node index; a packed leaf: bits 31 and 30 set, bits 26..30 the block count - 1, bits 0..26 the first [`Tri4`] block; or a range leaf: bit 31 set, bits 0..30 an index into [`WideBvh::ranges`] |
+/// | padding | 112..128 / 224..256 | keeps nodes aligned to cache lines |
 ///
-/// Empty slots have boxes at `+inf` that no ray with a finite `t_max` can hit.
+/// A box row per axis and side lets the slab test load, for each axis, just the plane the
+/// ray enters by and the one it leaves by. Empty slots have boxes at `+inf` that no ray with
+/// a finite `t_max` can hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
-pub struct Node4 {
-    /// Lower x of the four children.
-    pub min_x: [f32; 4],
-    /// Lower y.
-    pub min_y: [f32; 4],
-    /// Lower z.
-    pub min_z: [f32; 4],
-    /// Upper x.
-    pub max_x: [f32; 4],
-    /// Upper y.
-    pub max_y: [f32; 4],
-    /// Upper z.
-    pub max_z: [f32; 4],
+pub struct WideNode<const W: usize> {
+    /// Lower x, y, z and upper x, y, z of the `W` children, by row.
+    pub bounds: [[f32; W]; ROWS],
     /// Child references (see the table).
-    pub child: [u32; 4],
-    _pad: [u32; 4],
+    pub child: [u32; W],
 }
 
-const _: () = assert!(std::mem::size_of::<Node4>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
 
-impl Node4 {
-    fn empty() -> Node4 {
-        let inf = [f32::INFINITY; 4];
-        Node4 {
-            min_x: inf,
-            min_y: inf,
-            min_z: inf,
-            max_x: inf,
-            max_y: inf,
-            max_z: inf,
-            child: [EMPTY; 4],
-            _pad: [0; 4],
-        }
+impl<const W: usize> WideNode<W> {
+    fn empty() -> Self {
+        WideNode { bounds: [[f32::INFINITY; W]; ROWS], child: [EMPTY; W] }
     }
 
     fn set(&mut self, i: usize, b: &Aabb, child: u32) {
-        self.min_x[i] = b.min.x;
-        self.min_y[i] = b.min.y;
-        self.min_z[i] = b.min.z;
-        self.max_x[i] = b.max.x;
-        self.max_y[i] = b.max.y;
-        self.max_z[i] = b.max.z;
+        for axis in 0..3 {
+            self.bounds[axis][i] = b.min[axis];
+            self.bounds[axis + 3][i] = b.max[axis];
+        }
         self.child[i] = child;
     }
 
     /// The box of child `i`.
     pub fn child_bounds(&self, i: usize) -> Aabb {
-        Aabb {
-            min: crate::math::Vec3A::new(self.min_x[i], self.min_y[i], self.min_z[i]),
-            max: crate::math::Vec3A::new(self.max_x[i], self.max_y[i], self.max_z[i]),
-        }
+        let row = |r: usize| crate::math::Vec3A::new(self.bounds[r][i], self.bounds[r + 1][i], self.bounds[r + 2][i]);
+        Aabb { min: row(0), max: row(3) }
     }
 }
 
@@ -192,7 +178,7 @@ impl Tri4 {
     }
 }
 
-/// The blocks of a packed leaf reference: `first..first + count` in [`Bvh4::blocks`].
+/// The blocks of a packed leaf reference: `first..first + count` in [`WideBvh::blocks`].
 #[inline(always)]
 fn packed_blocks(child: u32) -> std::ops::Range<usize> {
     let first = (child & ((1 << BLOCK_BITS) - 1)) as usize;
@@ -219,26 +205,32 @@ fn ray_is_finite(ray: &Ray) -> bool {
     ray.origin.is_finite() && ray.dir.is_finite() && !ray.t.min.is_nan() && !ray.t.max.is_nan()
 }
 
-/// The 4-wide BVH.
+/// A wide BVH: nodes of `W` children, leaves of packed triangles or primitive ranges.
 #[derive(Clone, Debug, Default)]
-pub struct Bvh4 {
+pub struct WideBvh<const W: usize> {
     /// Nodes; `nodes[0]` is the root. Empty for an empty scene.
-    pub nodes: Vec<Node4>,
+    pub nodes: Vec<WideNode<W>>,
     /// Packed triangles of the leaves that hold only static triangles.
     pub blocks: Vec<Tri4>,
     /// The other leaves (spheres, moving shapes, mixes, oversized leaves): slot ranges whose
     /// primitives are intersected one by one through [`Primitives`].
     pub ranges: Vec<LeafRange>,
     /// The traversal variant: [`SimdLevel::detect`] when built. Private so that it can only
-    /// name a level the CPU has; [`Bvh4::portable`] selects the baseline.
+    /// name a level the CPU has; [`WideBvh::portable`] selects the baseline.
     simd: SimdLevel,
 }
 
-/// Deepest traversal stack: three pushes per level of a tree at most [`super::MAX_DEPTH`] deep.
-const STACK: usize = 3 * super::MAX_DEPTH + 4;
+/// The 4-wide BVH (128-byte nodes, tested with 4-lane vectors).
+pub type Bvh4 = WideBvh<4>;
+/// The 8-wide BVH that rendering traverses (256-byte nodes, one AVX2 test per step on x86-64).
+pub type Bvh8 = WideBvh<8>;
+
+/// Deepest traversal stack: `W - 1` pushes per level of a tree at most [`super::MAX_DEPTH`]
+/// deep, for the widest tree.
+const STACK: usize = 7 * super::MAX_DEPTH + 8;
 
 /// A fixed-capacity stack on the machine stack. Its storage is left uninitialised: zeroing
-/// ~1.5 KiB per ray showed up in profiles as a few percent of render time.
+/// a few KiB per ray showed up in profiles as a few percent of render time.
 struct Stack<T: Copy> {
     items: [std::mem::MaybeUninit<T>; STACK],
     len: usize,
@@ -253,7 +245,7 @@ impl<T: Copy> Stack<T> {
     #[inline(always)]
     fn push(&mut self, v: T) {
         // Cannot overflow: the tree is at most MAX_DEPTH levels deep and each level pushes
-        // at most three entries; the bounds check stays as a guard.
+        // at most W - 1 entries; the bounds check stays as a guard.
         self.items[self.len].write(v);
         self.len += 1;
     }
@@ -269,7 +261,7 @@ impl<T: Copy> Stack<T> {
     }
 }
 
-/// The ray's data for slab tests, splatted across the four lanes once per ray.
+/// The ray's data for the packed triangle test, splatted across four lanes once per ray.
 struct RayLanes {
     ox: f32x4,
     oy: f32x4,
@@ -277,15 +269,11 @@ struct RayLanes {
     dx: f32x4,
     dy: f32x4,
     dz: f32x4,
-    ix: f32x4,
-    iy: f32x4,
-    iz: f32x4,
 }
 
 impl RayLanes {
     #[inline(always)]
     fn new(ray: &Ray) -> RayLanes {
-        let inv = safe_inv_dir(ray.dir);
         RayLanes {
             ox: f32x4::splat(ray.origin.x),
             oy: f32x4::splat(ray.origin.y),
@@ -293,35 +281,176 @@ impl RayLanes {
             dx: f32x4::splat(ray.dir.x),
             dy: f32x4::splat(ray.dir.y),
             dz: f32x4::splat(ray.dir.z),
-            ix: f32x4::splat(inv.x),
-            iy: f32x4::splat(inv.y),
-            iz: f32x4::splat(inv.z),
         }
-    }
-
-    /// Entry distances of the four child boxes and the mask of those hit within
-    /// `[t_min, t_max]` (computed exactly as the scalar [`Aabb::hit_distance`] does).
-    #[inline(always)]
-    fn test(&self, n: &Node4, t_min: f32, t_max: f32) -> (f32x4, u32) {
-        let tx0 = (f32x4::new(n.min_x) - self.ox) * self.ix;
-        let tx1 = (f32x4::new(n.max_x) - self.ox) * self.ix;
-        let ty0 = (f32x4::new(n.min_y) - self.oy) * self.iy;
-        let ty1 = (f32x4::new(n.max_y) - self.oy) * self.iy;
-        let tz0 = (f32x4::new(n.min_z) - self.oz) * self.iz;
-        let tz1 = (f32x4::new(n.max_z) - self.oz) * self.iz;
-        let near =
-            tx0.fast_min(tx1).fast_max(ty0.fast_min(ty1)).fast_max(tz0.fast_min(tz1)).fast_max(f32x4::splat(t_min));
-        // A finite t_max keeps empty slots (boxes at +inf) out.
-        let far = tx0
-            .fast_max(tx1)
-            .fast_min(ty0.fast_max(ty1))
-            .fast_min(tz0.fast_max(tz1))
-            .fast_min(f32x4::splat(t_max.min(f32::MAX)));
-        (near, near.simd_le(far).to_bitmask())
     }
 }
 
-impl Bvh4 {
+/// For each axis, the row of [`WideNode::bounds`] the ray enters a box by and the one it
+/// leaves by: the lower plane when the (safe) inverse direction is positive. Since
+/// `(lo - o) * inv <= (hi - o) * inv` for positive `inv` in rounded arithmetic too, this gives
+/// exactly the scalar test's `min`/`max` of the two plane distances with half the work.
+#[inline(always)]
+fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
+    let (nx, ny, nz) = (usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0));
+    ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz])
+}
+
+/// A ray prepared for the slab test of one node's `W` boxes at once.
+pub trait NodeTest<const W: usize>: Sized {
+    /// Prepare `ray` with its safe inverse direction `inv`.
+    ///
+    /// # Safety
+    /// The CPU must have the features the implementation is compiled for.
+    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self;
+
+    /// Entry distances of the node's `W` child boxes and the mask of those hit within
+    /// `[t_min, t_max]`, computed as the scalar [`Aabb::hit_distance`] does.
+    ///
+    /// # Safety
+    /// As for [`NodeTest::new`].
+    unsafe fn test(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+}
+
+macro_rules! portable_node_test {
+    ($name:ident, $w:literal, $v:ty) => {
+        /// The slab test on the portable `wide` vectors.
+        pub struct $name {
+            o: [$v; 3],
+            inv: [$v; 3],
+            near: [usize; 3],
+            far: [usize; 3],
+        }
+
+        impl NodeTest<$w> for $name {
+            #[inline(always)]
+            unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+                let (near, far) = planes(inv);
+                $name {
+                    o: [<$v>::splat(ray.origin.x), <$v>::splat(ray.origin.y), <$v>::splat(ray.origin.z)],
+                    inv: [<$v>::splat(inv.x), <$v>::splat(inv.y), <$v>::splat(inv.z)],
+                    near,
+                    far,
+                }
+            }
+
+            #[inline(always)]
+            unsafe fn test(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
+                let t = |row: usize, a: usize| (<$v>::new(n.bounds[row]) - self.o[a]) * self.inv[a];
+                let near = t(self.near[0], 0)
+                    .fast_max(t(self.near[1], 1))
+                    .fast_max(t(self.near[2], 2).fast_max(<$v>::splat(t_min)));
+                // A finite t_max keeps empty slots (boxes at +inf) out.
+                let far = t(self.far[0], 0)
+                    .fast_min(t(self.far[1], 1))
+                    .fast_min(t(self.far[2], 2).fast_min(<$v>::splat(t_max.min(f32::MAX))));
+                (near.to_array(), near.simd_le(far).to_bitmask())
+            }
+        }
+    };
+}
+
+portable_node_test!(Portable4, 4, f32x4);
+portable_node_test!(Portable8, 8, f32x8);
+
+/// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step.
+#[cfg(target_arch = "x86_64")]
+pub struct Avx2Node8 {
+    o: [std::arch::x86_64::__m256; 3],
+    inv: [std::arch::x86_64::__m256; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl NodeTest<8> for Avx2Node8 {
+    // Not `target_feature` functions themselves: those would stay out-of-line calls in the
+    // traversal compiled for AVX2, where these inline.
+    #[inline(always)]
+    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+        use std::arch::x86_64::_mm256_set1_ps as splat;
+        let (near, far) = planes(inv);
+        // SAFETY: the caller vouches for AVX2.
+        unsafe {
+            Avx2Node8 {
+                o: [splat(ray.origin.x), splat(ray.origin.y), splat(ray.origin.z)],
+                inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
+                near,
+                far,
+            }
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn test(&self, n: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller vouches for AVX2; nodes are 64-byte aligned and each row is 32
+        // bytes, as the aligned loads need; `d` holds eight floats.
+        unsafe {
+            // The same operations, in the same order, as the portable test: identical results.
+            let plane = |row: usize, a: usize| {
+                _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.bounds[row].as_ptr()), self.o[a]), self.inv[a])
+            };
+            let near = _mm256_max_ps(
+                _mm256_max_ps(plane(self.near[0], 0), plane(self.near[1], 1)),
+                _mm256_max_ps(plane(self.near[2], 2), _mm256_set1_ps(t_min)),
+            );
+            let far = _mm256_min_ps(
+                _mm256_min_ps(plane(self.far[0], 0), plane(self.far[1], 1)),
+                _mm256_min_ps(plane(self.far[2], 2), _mm256_set1_ps(t_max.min(f32::MAX))),
+            );
+            let mut d = [0.0f32; 8];
+            _mm256_storeu_ps(d.as_mut_ptr(), near);
+            (d, _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32)
+        }
+    }
+}
+
+/// The node tests of one width: the portable one and the one used at [`SimdLevel::Avx2`].
+pub trait NodeWidth<const W: usize> {
+    /// The baseline test.
+    type Portable: NodeTest<W>;
+    /// The test compiled for AVX2 (the portable one, where no better exists).
+    type Avx2: NodeTest<W>;
+}
+
+/// Names the node tests of width `W` (see [`NodeWidth`]).
+pub struct Lanes<const W: usize>;
+
+impl NodeWidth<4> for Lanes<4> {
+    type Portable = Portable4;
+    type Avx2 = Portable4;
+}
+
+impl NodeWidth<8> for Lanes<8> {
+    type Portable = Portable8;
+    #[cfg(target_arch = "x86_64")]
+    type Avx2 = Avx2Node8;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Avx2 = Portable8;
+}
+
+type PortableTest<const W: usize> = <Lanes<W> as NodeWidth<W>>::Portable;
+#[cfg(target_arch = "x86_64")]
+type Avx2Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx2;
+
+/// Sort `(child, entry distance)` pairs farthest first (insertion sort: at most eight).
+#[inline(always)]
+fn sort_far_to_near(order: &mut [(u32, f32)]) {
+    for i in 1..order.len() {
+        let e = order[i];
+        let mut j = i;
+        while j > 0 && order[j - 1].1 < e.1 {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = e;
+    }
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W>,
+{
     /// Ask for a child's memory as soon as its box is hit, so that the loads overlap the
     /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic).
     #[inline(always)]
@@ -332,7 +461,7 @@ impl Bvh4 {
             let (p, lines): (*const i8, usize) = if is_packed(child) {
                 (self.blocks.as_ptr().wrapping_add(packed_blocks(child).start).cast(), 3)
             } else if child & LEAF_BIT == 0 {
-                (self.nodes.as_ptr().wrapping_add(child as usize).cast(), 2)
+                (self.nodes.as_ptr().wrapping_add(child as usize).cast(), size_of::<WideNode<W>>() / 64)
             } else {
                 return;
             };
@@ -346,12 +475,12 @@ impl Bvh4 {
     }
 
     /// Collapse a binary BVH: each node takes its binary node's children and keeps opening
-    /// the largest interior one (by surface area) until it has four. Leaves of static
+    /// the largest interior one (by surface area) until it has `W`. Leaves of static
     /// triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
-    pub fn from_binary<P: Primitives + ?Sized>(bin: &Bvh, prims: &P) -> Bvh4 {
-        let mut out = Bvh4 { simd: SimdLevel::detect(), ..Bvh4::default() };
+    pub fn from_binary<P: Primitives + ?Sized>(bin: &Bvh, prims: &P) -> Self {
+        let mut out = WideBvh { simd: SimdLevel::detect(), ..WideBvh::default() };
         let Some(root) = bin.nodes.first() else { return out };
-        out.nodes.push(Node4::empty());
+        out.nodes.push(WideNode::empty());
         if root.is_leaf() {
             let r = out.leaf(prims, root.start, root.count);
             out.nodes[0].set(0, &root.bounds(), r);
@@ -367,7 +496,7 @@ impl Bvh4 {
     }
 
     /// The same tree traversed by the baseline code (to compare it with the detected one).
-    pub fn portable(mut self) -> Bvh4 {
+    pub fn portable(mut self) -> Self {
         self.simd = SimdLevel::Portable;
         self
     }
@@ -394,11 +523,13 @@ impl Bvh4 {
 
     fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, prims: &P, bin_index: usize, at: usize) {
         let node = &bin.nodes[bin_index];
-        // The children, opened largest first until there are four (no allocation: this runs
+        // The children, opened largest first until there are W (no allocation: this runs
         // once per node of the collapsed tree).
-        let mut kids = [bin_index + 1, node.start as usize, 0, 0];
+        let mut kids = [0usize; W];
+        kids[0] = bin_index + 1;
+        kids[1] = node.start as usize;
         let mut len = 2;
-        while len < 4 {
+        while len < W {
             let widest =
                 kids[..len].iter().enumerate().filter(|(_, k)| !bin.nodes[**k].is_leaf()).max_by(|a, b| {
                     bin.nodes[*a.1].bounds().half_area().total_cmp(&bin.nodes[*b.1].bounds().half_area())
@@ -409,23 +540,23 @@ impl Bvh4 {
             kids[len] = n.start as usize;
             len += 1;
         }
-        let mut n4 = Node4::empty();
-        let mut interior = [(0usize, 0usize); 4];
+        let mut wide = WideNode::empty();
+        let mut interior = [(0usize, 0usize); W];
         let mut n_interior = 0;
         for (slot, &k) in kids[..len].iter().enumerate() {
             let child = &bin.nodes[k];
             if child.is_leaf() {
                 let r = self.leaf(prims, child.start, child.count);
-                n4.set(slot, &child.bounds(), r);
+                wide.set(slot, &child.bounds(), r);
             } else {
                 let idx = self.nodes.len();
-                self.nodes.push(Node4::empty());
-                n4.set(slot, &child.bounds(), idx as u32);
+                self.nodes.push(WideNode::empty());
+                wide.set(slot, &child.bounds(), idx as u32);
                 interior[n_interior] = (k, idx);
                 n_interior += 1;
             }
         }
-        self.nodes[at] = n4;
+        self.nodes[at] = wide;
         for &(k, idx) in &interior[..n_interior] {
             self.fill(bin, prims, k, idx);
         }
@@ -437,7 +568,7 @@ impl Bvh4 {
         self.intersect_counted(ray, prims, &mut NoObserver)
     }
 
-    /// [`Bvh4::intersect`], reporting the traversal to `obs`.
+    /// [`WideBvh::intersect`], reporting the traversal to `obs`.
     #[inline]
     pub fn intersect_counted<P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
@@ -445,12 +576,17 @@ impl Bvh4 {
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
+        // NaN rays would pass every slab test (SIMD min/max pass NaN through); they hit nothing.
+        if self.nodes.is_empty() || !ray_is_finite(ray) {
+            return None;
+        }
         #[cfg(target_arch = "x86_64")]
         if self.simd == SimdLevel::Avx2 {
             // SAFETY: `simd` is Avx2 only where the CPU has those features (see the field).
             return unsafe { self.intersect_avx2(ray, prims, obs) };
         }
-        self.intersect_impl(ray, prims, obs)
+        // SAFETY: the portable test needs no CPU feature.
+        unsafe { self.intersect_with::<PortableTest<W>, P, O>(ray, prims, obs) }
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -461,20 +597,20 @@ impl Bvh4 {
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        self.intersect_impl(ray, prims, obs)
+        // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.intersect_with::<Avx2Test<W>, P, O>(ray, prims, obs) }
     }
 
+    /// The closest-hit traversal with node test `T` (the CPU must have its features).
     #[inline(always)]
-    fn intersect_impl<P: Primitives + ?Sized, O: TraversalObserver>(
+    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         ray: &Ray,
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        // NaN rays would pass every slab test (SIMD min/max pass NaN through); they hit nothing.
-        if self.nodes.is_empty() || !ray_is_finite(ray) {
-            return None;
-        }
+        // SAFETY: the caller vouches for T's CPU features.
+        let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
         let lanes = RayLanes::new(ray);
         let (t_min, mut t_max) = (ray.t.min, ray.t.max);
         let mut best = None;
@@ -513,24 +649,30 @@ impl Bvh4 {
             } else {
                 let node = &self.nodes[current as usize];
                 obs.entered(current);
-                obs.boxes_tested(4);
-                let (near, mask) = lanes.test(node, t_min, t_max);
+                obs.boxes_tested(W as u32);
+                // SAFETY: as for `T::new`.
+                let (near, mut mask) = unsafe { boxes.test(node, t_min, t_max) };
                 if mask != 0 {
-                    let near = near.to_array();
+                    let first = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        // One child hit (the common case deep in the tree): no ordering.
+                        current = node.child[first];
+                        continue;
+                    }
                     // Visit the nearest hit child now; push the others, farthest first.
-                    let mut order = [(0u32, 0.0f32); 4];
-                    let mut k = 0;
-                    for (i, (&child, &d)) in node.child.iter().zip(&near).enumerate() {
-                        if mask & (1 << i) != 0 {
-                            order[k] = (child, d);
-                            self.prefetch(child);
-                            k += 1;
-                        }
+                    let mut order = [(0u32, 0.0f32); W];
+                    order[0] = (node.child[first], near[first]);
+                    self.prefetch(node.child[first]);
+                    let mut k = 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        order[k] = (node.child[i], near[i]);
+                        self.prefetch(node.child[i]);
+                        k += 1;
                     }
-                    let order = &mut order[..k];
-                    if k > 1 {
-                        order.sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
-                    }
+                    sort_far_to_near(&mut order[..k]);
                     for &e in &order[..k - 1] {
                         stack.push(e);
                     }
@@ -551,25 +693,30 @@ impl Bvh4 {
     /// Whether anything blocks `ray` within its interval; stops at the first hit found.
     #[inline]
     pub fn occluded<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        if self.nodes.is_empty() || !ray_is_finite(ray) {
+            return false;
+        }
         #[cfg(target_arch = "x86_64")]
         if self.simd == SimdLevel::Avx2 {
             // SAFETY: `simd` is Avx2 only where the CPU has those features (see the field).
             return unsafe { self.occluded_avx2(ray, prims) };
         }
-        self.occluded_impl(ray, prims)
+        // SAFETY: the portable test needs no CPU feature.
+        unsafe { self.occluded_with::<PortableTest<W>, P>(ray, prims) }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        self.occluded_impl(ray, prims)
+        // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.occluded_with::<Avx2Test<W>, P>(ray, prims) }
     }
 
+    /// The any-hit traversal with node test `T` (the CPU must have its features).
     #[inline(always)]
-    fn occluded_impl<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        if self.nodes.is_empty() || !ray_is_finite(ray) {
-            return false;
-        }
+    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: the caller vouches for T's CPU features.
+        let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
         let lanes = RayLanes::new(ray);
         let (t_min, t_max) = (ray.t.min, ray.t.max);
         let mut stack: Stack<u32> = Stack::new();
@@ -590,7 +737,8 @@ impl Bvh4 {
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                let (_, mut mask) = lanes.test(node, t_min, t_max);
+                // SAFETY: as for `T::new`.
+                let (_, mut mask) = unsafe { boxes.test(node, t_min, t_max) };
                 if mask != 0 {
                     // Any order finds a blocker; the first hit child is visited next.
                     let first = mask.trailing_zeros() as usize;
@@ -624,7 +772,7 @@ impl Bvh4 {
         while let Some(i) = stack.pop() {
             reached[i] += 1;
             let n = &self.nodes[i];
-            for k in 0..4 {
+            for k in 0..W {
                 let c = n.child[k];
                 if c == EMPTY {
                     continue;
@@ -656,7 +804,7 @@ impl Bvh4 {
                     if c <= i || c >= self.nodes.len() {
                         return Err(BvhError::BadChild { node: i, child: c });
                     }
-                    for j in 0..4 {
+                    for j in 0..W {
                         if self.nodes[c].child[j] != EMPTY && !b.contains(&self.nodes[c].child_bounds(j)) {
                             return Err(BvhError::ChildOutside { node: i, child: c });
                         }

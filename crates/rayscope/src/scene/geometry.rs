@@ -1,7 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, PrimRef, SceneSphere};
-use crate::bvh::{BuildParams, Bvh, Bvh4, Primitives, TraversalObserver};
+use crate::bvh::{BuildParams, Bvh, Bvh8, Primitives, TraversalObserver};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -52,11 +52,11 @@ impl Shape {
 /// The BVH and the shapes it indexes, stored in BVH order so a leaf's shapes are contiguous.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
-    /// The binary hierarchy: what the debugger's level view draws, and what [`Bvh4`] is
+    /// The binary hierarchy: what the debugger's level view draws, and what [`Bvh8`] is
     /// collapsed from.
     pub bvh: Bvh,
-    /// The 4-wide hierarchy rendering traverses.
-    pub bvh4: Bvh4,
+    /// The 8-wide hierarchy rendering traverses.
+    pub wide: Bvh8,
     /// Shapes in BVH slot order.
     pub shapes: Vec<Shape>,
     /// Moving shapes, referenced by [`Shape::Moving`].
@@ -82,11 +82,11 @@ impl Geometry {
     pub fn build(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef]) -> Geometry {
         let mut moving = Vec::new();
         let shapes = all_shapes(meshes, spheres, prims, &mut moving);
-        let mut geometry = Geometry { bvh: Bvh::default(), bvh4: Bvh4::default(), shapes: Vec::new(), moving };
+        let mut geometry = Geometry { bvh: Bvh::default(), wide: Bvh8::default(), shapes: Vec::new(), moving };
         let bounds: Vec<Aabb> = shapes.iter().map(|s| geometry.shape_bounds(s)).collect();
         geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
         geometry.shapes = geometry.bvh.prim_indices.iter().map(|&i| shapes[i as usize]).collect();
-        geometry.bvh4 = Bvh4::from_binary(&geometry.bvh, &geometry);
+        geometry.wide = Bvh8::from_binary(&geometry.bvh, &geometry);
         geometry
     }
 
@@ -117,10 +117,10 @@ impl Geometry {
         }
     }
 
-    /// Closest hit, with its global primitive id (through the 4-wide BVH).
+    /// Closest hit, with its global primitive id (through the 8-wide BVH).
     #[inline]
     pub fn intersect<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
-        let hit = self.bvh4.intersect_counted(ray, self, stats);
+        let hit = self.wide.intersect_counted(ray, self, stats);
         self.global_hit(hit)
     }
 
@@ -130,10 +130,10 @@ impl Geometry {
         self.global_hit(hit)
     }
 
-    /// Whether anything blocks `ray` (through the 4-wide BVH).
+    /// Whether anything blocks `ray` (through the 8-wide BVH).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.bvh4.occluded(ray, self)
+        self.wide.occluded(ray, self)
     }
 
     #[inline]
