@@ -2,6 +2,7 @@
 //! or soft from sampled area lights), recursive mirror or glossy reflection weighted by `ks`,
 //! and transparency blended by `1 - d`.
 
+use crate::bvh::shadow::Occluders;
 use crate::light::LightSample;
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
@@ -9,6 +10,10 @@ use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent};
 use crate::render::RenderSettings;
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Scene, SurfaceInteraction};
+
+/// Light samples per shading point from which their shadow rays share one BVH query
+/// ([`Scene::shadow_group`]); below it, the query costs more than it saves.
+const GROUP_SHADOW_RAYS: u32 = 4;
 
 /// Counts of rays cast, for throughput figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -169,11 +174,20 @@ impl<'a> Integrator<'a> {
         let n = self.settings.light_samples;
         for (i, light) in self.scene.lights.iter().enumerate() {
             if n == 0 || matches!(light, crate::light::Light::Point { .. }) {
-                sum += self.shade_sample(ray, si, i, &light.center_sample(si.point), ctx);
+                sum += self.shade_sample(ray, si, i, &light.center_sample(si.point), None, ctx);
                 continue;
             }
             let segment = matches!(light, crate::light::Light::Segment { .. });
             let sampler = light.sampler(si.point);
+            // The samples' shadow rays all leave from one origin (the lit side's offset; the
+            // others are culled in `shade_sample`): one BVH query finds what could block any
+            // of them.
+            let group = if self.settings.shadows && n >= GROUP_SHADOW_RAYS {
+                let apex = Ray::spawn_origin(si.point, si.geo_normal, si.geo_normal);
+                self.scene.shadow_group(apex, si.geo_normal, light)
+            } else {
+                None
+            };
             let strata = Strata2::new(n);
             let mut acc = Color::ZERO;
             for k in 0..n {
@@ -183,7 +197,7 @@ impl<'a> Integrator<'a> {
                     strata.sample(k, ctx.sampler.next_2d())
                 };
                 let ls = sampler.sample(u);
-                acc += self.shade_sample(ray, si, i, &ls, ctx);
+                acc += self.shade_sample(ray, si, i, &ls, group.as_ref(), ctx);
             }
             sum += acc / n as f32;
         }
@@ -198,6 +212,7 @@ impl<'a> Integrator<'a> {
         si: &SurfaceInteraction,
         light: usize,
         ls: &LightSample,
+        group: Option<&Occluders>,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let cos = si.shading_normal.dot(ls.wi);
@@ -206,7 +221,7 @@ impl<'a> Integrator<'a> {
         if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
             return Color::ZERO;
         }
-        let arrived = self.visibility(si, ls, ray.time, light, ctx);
+        let arrived = self.visibility(si, ls, ray.time, light, group, ctx);
         if arrived == Color::ZERO {
             return Color::ZERO;
         }
@@ -225,13 +240,15 @@ impl<'a> Integrator<'a> {
         diffuse + specular
     }
 
-    /// The fraction of light from `ls` that reaches `si` (all of it without shadows).
+    /// The fraction of light from `ls` that reaches `si` (all of it without shadows), through
+    /// the shading point's shadow `group` where there is one.
     fn visibility<R: RayRecorder>(
         &self,
         si: &SurfaceInteraction,
         ls: &LightSample,
         time: f32,
         light: usize,
+        group: Option<&Occluders>,
         ctx: &mut PathContext<R>,
     ) -> Color {
         if !self.settings.shadows {
@@ -239,7 +256,10 @@ impl<'a> Integrator<'a> {
         }
         ctx.counts.shadow += 1;
         let ray = Ray::spawn_towards(si.point, si.geo_normal, ls.wi, ls.distance, time);
-        let t = self.scene.transmittance(&ray, self.settings);
+        let t = match group {
+            Some(occ) => self.scene.transmittance_among(&ray, occ),
+            None => self.scene.transmittance(&ray, self.settings),
+        };
         if R::RECORDS {
             // Only the debugger wants to know where the blocker is: an extra query, never paid
             // by normal renders.

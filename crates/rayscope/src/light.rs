@@ -243,6 +243,21 @@ impl Light {
         self.point_at(Vec2::splat(0.5)).0
     }
 
+    /// A sphere holding every point of the light: `(centre, radius)`.
+    pub fn bounding_sphere(&self) -> (Vec3A, f32) {
+        match *self {
+            Light::Point { position, .. } => (position.into(), 0.0),
+            Light::Segment { endpoint0, endpoint1, .. } => {
+                (endpoint0.lerp(endpoint1, 0.5).into(), 0.5 * endpoint0.distance(endpoint1))
+            }
+            Light::Parallelogram { v0, edge01, edge02, .. } => {
+                let half = 0.5 * (edge01 + edge02).length().max((edge01 - edge02).length());
+                ((v0 + 0.5 * (edge01 + edge02)).into(), half)
+            }
+            Light::Sphere { center, radius, .. } => (center.into(), radius),
+        }
+    }
+
     /// Whether every number in the light is finite and its radius (if any) non-negative.
     pub fn is_valid(&self) -> bool {
         let v = |x: &Vec3| x.is_finite();

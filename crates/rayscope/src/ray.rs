@@ -56,6 +56,14 @@ impl Ray {
         Ray { origin: offset_origin(p, ng, dir), dir, t: Interval::FORWARD, time }
     }
 
+    /// Where a secondary ray leaving surface point `p` (geometric normal `ng`) in direction
+    /// `dir` starts: the origin [`Ray::spawn`] and its kin give it. Every direction on the
+    /// same side of the surface gets the same origin.
+    #[inline]
+    pub fn spawn_origin(p: Vec3A, ng: Vec3A, dir: Vec3A) -> Vec3A {
+        offset_origin(p, ng, dir)
+    }
+
     /// A shadow ray from surface point `p` towards `target`, ending just short of it, so that
     /// geometry at the target itself (an area light's own surface) does not count as a blocker.
     /// Returns the ray and the distance from `p` to `target`.

@@ -334,3 +334,47 @@ fn validate_catches_broken_trees() {
     bad_child.nodes[0].start = 0;
     assert!(bad_child.validate(&bounds).is_err());
 }
+
+/// Shadow rays grouped per shading point (`bvh::shadow`) get the answers of traversing the
+/// tree one ray at a time: random points, lights and segments in random soups and in the
+/// Cornell box, with hits and misses both frequent.
+#[test]
+fn shadow_groups_match_one_ray_at_a_time() {
+    let mut rng = Rng(21);
+    let (mut groups, mut blocked, mut open, mut gave_up) = (0, 0, 0, 0);
+    let mut check_groups = |wide: &Bvh8, prims: &dyn Primitives, rng: &mut Rng, scale: f32| {
+        for _ in 0..300 {
+            let apex = rng.vec3(-scale, scale);
+            let side = rng.dir();
+            let center = rng.vec3(-scale, scale);
+            let radius = rng.range(0.0, 0.3 * scale);
+            let Some(occ) = wide.occluders(apex, side, center, radius) else {
+                gave_up += 1;
+                continue;
+            };
+            groups += 1;
+            for _ in 0..40 {
+                // A point of the light's ball, seen from the apex on the side of `side`.
+                let target = center + rng.dir() * radius * rng.f32().sqrt();
+                let to = target - apex;
+                if to.dot(side) <= 0.0 {
+                    continue;
+                }
+                let ray = Ray::spawn_to(apex, Vec3A::ZERO, target, 0.0);
+                let want = wide.occluded(&ray, prims);
+                assert_eq!(wide.occluded_among(&ray, prims, &occ), want, "{ray:?} to {target:?}");
+                if want { blocked += 1 } else { open += 1 }
+            }
+        }
+    };
+    for (n, size) in [(1, 0.5), (50, 0.3), (2000, 0.05)] {
+        let shapes = random_soup(&mut rng, n, size);
+        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let bvh = Bvh::build(&bounds, &BuildParams::default());
+        let prims = Ordered { shapes: &shapes, bvh: &bvh };
+        check_groups(&Bvh8::from_binary(&bvh, &prims), &prims, &mut rng, 1.2);
+    }
+    let scene = builtin_scene("cornell-box-sphere-light", None);
+    check_groups(&scene.geometry.wide, &scene.geometry, &mut rng, 0.6);
+    assert!(groups > 500 && blocked > 2000 && open > 2000 && gave_up > 10, "{groups} {blocked} {open} {gave_up}");
+}

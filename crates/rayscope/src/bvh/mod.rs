@@ -7,6 +7,7 @@
 
 pub mod build;
 pub mod node;
+pub mod shadow;
 pub mod stats;
 pub mod traverse;
 pub mod validate;

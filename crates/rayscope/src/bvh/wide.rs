@@ -48,7 +48,7 @@ impl SimdLevel {
 /// Marks an unused child slot.
 pub const EMPTY: u32 = u32::MAX;
 /// Set on a child reference that is a leaf.
-const LEAF_BIT: u32 = 1 << 31;
+pub(super) const LEAF_BIT: u32 = 1 << 31;
 /// Set, with [`LEAF_BIT`], on a leaf of packed triangles ([`Tri4`] blocks).
 const PACKED_BIT: u32 = 1 << 30;
 /// Bits of a packed leaf reference that hold its first block.
@@ -124,7 +124,7 @@ const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
 
 impl Tri4 {
     fn pack(tris: impl Iterator<Item = (u32, Triangle)>) -> Tri4 {
-        let mut t = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], slot: [EMPTY; 4] };
+        let mut t = Tri4::EMPTY;
         for (lane, (slot, tri)) in tris.take(4).enumerate() {
             for axis in 0..3 {
                 t.v0[axis][lane] = tri.v0[axis];
@@ -134,6 +134,19 @@ impl Tri4 {
             t.slot[lane] = slot;
         }
         t
+    }
+
+    /// A block of four unused lanes (degenerate triangles, never hit).
+    pub const EMPTY: Tri4 = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], slot: [EMPTY; 4] };
+
+    /// Copy lane `from` of `src` into lane `to`, bit for bit.
+    pub fn copy_lane(&mut self, to: usize, src: &Tri4, from: usize) {
+        for axis in 0..3 {
+            self.v0[axis][to] = src.v0[axis][from];
+            self.e1[axis][to] = src.e1[axis][from];
+            self.e2[axis][to] = src.e2[axis][from];
+        }
+        self.slot[to] = src.slot[from];
     }
 
     /// The triangle in `lane`.
@@ -146,7 +159,7 @@ impl Tri4 {
     /// ([`Triangle::intersect`]), so hits are bit-identical: returns the lanes hit within
     /// `[t_min, t_max]` and their `t`, `u`, `v`.
     #[inline(always)]
-    fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
+    pub(super) fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
         let l = |a: &[f32; 4]| f32x4::new(*a);
         let (e1x, e1y, e1z) = (l(&self.e1[0]), l(&self.e1[1]), l(&self.e1[2]));
         let (e2x, e2y, e2z) = (l(&self.e2[0]), l(&self.e2[1]), l(&self.e2[2]));
@@ -180,14 +193,14 @@ impl Tri4 {
 
 /// The blocks of a packed leaf reference: `first..first + count` in [`WideBvh::blocks`].
 #[inline(always)]
-fn packed_blocks(child: u32) -> std::ops::Range<usize> {
+pub(super) fn packed_blocks(child: u32) -> std::ops::Range<usize> {
     let first = (child & ((1 << BLOCK_BITS) - 1)) as usize;
     first..first + ((child >> BLOCK_BITS) & 0xf) as usize + 1
 }
 
 /// Whether a child reference is a packed leaf.
 #[inline(always)]
-fn is_packed(child: u32) -> bool {
+pub(super) fn is_packed(child: u32) -> bool {
     child & (LEAF_BIT | PACKED_BIT) == LEAF_BIT | PACKED_BIT
 }
 
@@ -201,7 +214,7 @@ pub struct LeafRange {
 }
 
 #[inline(always)]
-fn ray_is_finite(ray: &Ray) -> bool {
+pub(super) fn ray_is_finite(ray: &Ray) -> bool {
     ray.origin.is_finite() && ray.dir.is_finite() && !ray.t.min.is_nan() && !ray.t.max.is_nan()
 }
 
@@ -262,7 +275,7 @@ impl<T: Copy> Stack<T> {
 }
 
 /// The ray's data for the packed triangle test, splatted across four lanes once per ray.
-struct RayLanes {
+pub(super) struct RayLanes {
     ox: f32x4,
     oy: f32x4,
     oz: f32x4,
@@ -273,7 +286,7 @@ struct RayLanes {
 
 impl RayLanes {
     #[inline(always)]
-    fn new(ray: &Ray) -> RayLanes {
+    pub(super) fn new(ray: &Ray) -> RayLanes {
         RayLanes {
             ox: f32x4::splat(ray.origin.x),
             oy: f32x4::splat(ray.origin.y),

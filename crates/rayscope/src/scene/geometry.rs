@@ -1,6 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, PrimRef, SceneSphere};
+use crate::bvh::shadow::Occluders;
 use crate::bvh::{BuildParams, Bvh, Bvh8, Primitives, TraversalObserver};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
@@ -134,6 +135,19 @@ impl Geometry {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.wide.occluded(ray, self)
+    }
+
+    /// The leaves that shadow rays from `apex` (on the side of `side`) into the sphere
+    /// (`center`, `radius`) may cross, for [`Geometry::occluded_among`]; see
+    /// [`crate::bvh::shadow`].
+    pub fn occluders(&self, apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Occluders> {
+        self.wide.occluders(apex, side, center, radius)
+    }
+
+    /// [`Geometry::occluded`] for a ray of the group `occ` was collected for.
+    #[inline]
+    pub fn occluded_among(&self, ray: &Ray, occ: &Occluders) -> bool {
+        self.wide.occluded_among(ray, self, occ)
     }
 
     #[inline]

@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape};
 
+use crate::bvh::shadow::Occluders;
 use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
@@ -251,6 +252,27 @@ impl Scene {
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.geometry.occluded(ray)
+    }
+
+    /// The leaves that shadow rays from `apex` to points of `light` may cross, so that many
+    /// samples of the light share one BVH query ([`crate::bvh::shadow`]). The rays must go to
+    /// the side of `side` (a surface's geometric normal), as shadow rays that are cast do.
+    /// `None` where each ray must be traced alone: scenes with transparent surfaces (whose
+    /// shadows need every surface crossed), an apex inside the light's bounds, or a cluttered
+    /// view of it.
+    pub fn shadow_group(&self, apex: Vec3A, side: Vec3A, light: &Light) -> Option<Occluders> {
+        if self.has_transparency {
+            return None;
+        }
+        let (center, radius) = light.bounding_sphere();
+        self.geometry.occluders(apex, side, center, radius)
+    }
+
+    /// What [`Scene::transmittance`] gives for a shadow ray of the group `occ` was collected
+    /// for (no transparency, so all or nothing).
+    #[inline]
+    pub fn transmittance_among(&self, ray: &Ray, occ: &Occluders) -> Color {
+        if self.geometry.occluded_among(ray, occ) { Color::ZERO } else { Color::ONE }
     }
 
     /// The material of primitive `prim`.

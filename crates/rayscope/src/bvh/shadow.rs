@@ -1,0 +1,247 @@
+//! Shadow rays grouped per shading point: many samples of one area light all leave the same
+//! point towards the same light. One query collects the leaves that any of those segments
+//! could cross (a frustum around the cone from the point to the light's bounding sphere), and
+//! each shadow ray then tests just those leaves, with no traversal. In the open (the common
+//! case) the list is empty and every sample is visible at once.
+//!
+//! The answers are those of [`WideBvh::occluded`]: the frustum contains every segment, so a
+//! primitive that blocks one lies in a leaf on the list, and each listed leaf is tested with
+//! the traversal's own box and triangle tests.
+
+use super::Primitives;
+use super::wide::{
+    EMPTY, LEAF_BIT, Lanes, LeafRange, NodeWidth, RayLanes, Tri4, WideBvh, is_packed, packed_blocks, ray_is_finite,
+};
+use crate::geometry::aabb::safe_inv_dir;
+use crate::geometry::{Aabb, Triangle};
+use crate::math::Vec3A;
+use crate::ray::Ray;
+
+/// Most triangles a group keeps (in [`Tri4`] blocks); a query meeting more gives up, and its
+/// rays traverse the tree one by one (a cluttered view of the light gains little from a list).
+pub const MAX_TRIANGLES: usize = 32;
+/// Most other leaves (spheres, moving shapes) a group keeps.
+pub const MAX_LEAVES: usize = 8;
+
+/// What segments from one point to one light may cross: [`WideBvh::occluders`]. The
+/// triangles that may block them, repacked four to a block (each lane a bit-exact copy of the
+/// tree's), and the other leaves with their boxes.
+#[derive(Clone, Copy, Debug)]
+pub struct Occluders {
+    triangles: usize,
+    blocks: [Tri4; MAX_TRIANGLES / 4],
+    leaves: usize,
+    boxes: [Aabb; MAX_LEAVES],
+    ranges: [LeafRange; MAX_LEAVES],
+}
+
+impl Occluders {
+    fn new() -> Occluders {
+        Occluders {
+            triangles: 0,
+            blocks: [Tri4::EMPTY; MAX_TRIANGLES / 4],
+            leaves: 0,
+            boxes: [Aabb::EMPTY; MAX_LEAVES],
+            ranges: [LeafRange { start: 0, count: 0 }; MAX_LEAVES],
+        }
+    }
+
+    /// Triangles listed.
+    pub fn triangles(&self) -> usize {
+        self.triangles
+    }
+
+    /// Leaves of other primitives listed.
+    pub fn leaves(&self) -> usize {
+        self.leaves
+    }
+
+    /// Whether nothing can block any of the segments.
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0 && self.leaves == 0
+    }
+}
+
+/// A plane `n . (x - apex) <= h`: the frustum is the intersection of six of them.
+#[derive(Clone, Copy, Debug)]
+struct Plane {
+    n: Vec3A,
+    h: f32,
+}
+
+/// The square frustum, with its apex at the shading point, that holds the cone of directions
+/// towards a sphere: four planes tangent to the cone, one behind the apex, one beyond the
+/// sphere; and the surface's tangent plane, which the rays leave on one side.
+struct Frustum {
+    apex: Vec3A,
+    planes: [Plane; 7],
+    /// The corners of the pyramid's far end; with the apex, they span it.
+    corners: [Vec3A; 4],
+    /// Slack for the tests, far above float error.
+    tol: f32,
+}
+
+impl Frustum {
+    /// The frustum from `apex` around the sphere (`center`, `radius`) on the side `side`
+    /// points to, or `None` when the apex is at or inside the sphere (every direction may
+    /// lead to the light).
+    fn new(apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Frustum> {
+        let to = center - apex;
+        let dist = to.length();
+        // Margins far above float error: the frustum only needs to contain the segments.
+        let scale = 1.0 + apex.abs().max_element().max(center.abs().max_element());
+        let r = radius * (1.0 + 1e-3) + 1e-5 * scale;
+        // Too close to the light (or not finite): trace each ray.
+        if !dist.is_finite() || dist <= 1.5 * r {
+            return None;
+        }
+        let a = to / dist;
+        let sin = r / dist;
+        let cos = (1.0 - sin * sin).sqrt();
+        let (u, v) = a.any_orthonormal_pair();
+        // A point at angle phi <= theta from the axis has n . (x - apex) = |x - apex|
+        // sin(phi - theta) <= 0 for n = w cos(theta) - a sin(theta), w any unit vector
+        // across the axis: the four sides.
+        let tangent = |w: Vec3A| Plane { n: w * cos - a * sin, h: 0.0 };
+        let tol = 1e-5 * (dist + r + scale);
+        let mut planes = [
+            tangent(u),
+            tangent(-u),
+            tangent(v),
+            tangent(-v),
+            Plane { n: -a, h: 0.0 },
+            Plane { n: a, h: dist + r },
+            // The surface the rays leave: the ones behind it are never cast.
+            Plane { n: -side, h: 0.0 },
+        ];
+        for p in &mut planes {
+            p.h += tol;
+        }
+        let far = dist + r;
+        let half = far * (sin / cos) * (1.0 + 1e-3);
+        let corners = [half * (u + v), half * (u - v), half * (v - u), -half * (u + v)].map(|c| far * a + c);
+        Some(Frustum { apex, planes, corners, tol })
+    }
+
+    /// Whether the triangle may meet the frustum: false only when its corners all lie outside
+    /// one plane.
+    #[inline]
+    fn may_meet_triangle(&self, t: &Triangle) -> bool {
+        let (a, b, c) = (t.v0 - self.apex, t.v0 + t.e1 - self.apex, t.v0 + t.e2 - self.apex);
+        if !self.planes.iter().all(|p| p.n.dot(a) <= p.h || p.n.dot(b) <= p.h || p.n.dot(c) <= p.h) {
+            return false;
+        }
+        // The triangle's own plane separates when the apex and the far corners all lie
+        // strictly on one side of it (the pyramid is their convex hull).
+        let n = t.e1.cross(t.e2);
+        let slack = self.tol * n.length();
+        let side = |p: Vec3A| n.dot(p - a);
+        let apex = side(Vec3A::ZERO);
+        let above = apex > slack && self.corners.iter().all(|&c| side(c) > slack);
+        let below = apex < -slack && self.corners.iter().all(|&c| side(c) < -slack);
+        !(above || below)
+    }
+
+    /// Whether box `b` may meet the frustum: false only when it lies wholly outside one plane.
+    #[inline]
+    fn may_meet(&self, min: Vec3A, max: Vec3A) -> bool {
+        let (lo, hi) = (min - self.apex, max - self.apex);
+        self.planes.iter().all(|p| {
+            // The box corner farthest along -n: the smallest n . (x - apex) over the box.
+            let corner = Vec3A::select(p.n.cmpge(Vec3A::ZERO), lo, hi);
+            p.n.dot(corner) <= p.h
+        })
+    }
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W>,
+{
+    const WIDTH_FITS_STACK: () = assert!(W <= 8);
+
+    /// The leaves that any segment from `apex` to a point of the sphere (`center`, `radius`)
+    /// may cross, of those whose direction `d` has `side . d >= 0` (a shading point's
+    /// geometric normal: shadow rays leave on its side; `Vec3A::ZERO` to keep them all);
+    /// `None` when the apex is inside the sphere, a value is not finite, or more than
+    /// [`MAX_OCCLUDERS`] leaves qualify (then trace with [`WideBvh::occluded`]).
+    pub fn occluders(&self, apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Occluders> {
+        if !apex.is_finite() || !side.is_finite() || !center.is_finite() || !radius.is_finite() {
+            return None;
+        }
+        let frustum = Frustum::new(apex, side, center, radius)?;
+        let mut out = Occluders::new();
+        if self.nodes.is_empty() {
+            return Some(out);
+        }
+        let () = Self::WIDTH_FITS_STACK;
+        let mut stack = [0u32; 8 * super::MAX_DEPTH];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let node = &self.nodes[stack[len] as usize];
+            for i in 0..W {
+                let child = node.child[i];
+                if child == EMPTY {
+                    continue;
+                }
+                let b = node.child_bounds(i);
+                if !frustum.may_meet(b.min, b.max) {
+                    continue;
+                }
+                if is_packed(child) {
+                    // Keep the triangles that may meet the frustum, lane by lane.
+                    for block in &self.blocks[packed_blocks(child)] {
+                        for lane in 0..4 {
+                            if block.slot[lane] == EMPTY || !frustum.may_meet_triangle(&block.triangle(lane)) {
+                                continue;
+                            }
+                            if out.triangles == MAX_TRIANGLES {
+                                return None;
+                            }
+                            out.blocks[out.triangles / 4].copy_lane(out.triangles % 4, block, lane);
+                            out.triangles += 1;
+                        }
+                    }
+                } else if child & LEAF_BIT != 0 {
+                    if out.leaves == MAX_LEAVES {
+                        return None;
+                    }
+                    out.boxes[out.leaves] = b;
+                    out.ranges[out.leaves] = self.ranges[(child & !LEAF_BIT) as usize];
+                    out.leaves += 1;
+                } else {
+                    // Room is certain: each node pushes at most W <= 8 and pops one, over at
+                    // most MAX_DEPTH levels.
+                    stack[len] = child;
+                    len += 1;
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// Whether anything blocks `ray`, which must be one of the segments `occ` was collected
+    /// for (from its apex towards its sphere): the same answer as [`WideBvh::occluded`].
+    pub fn occluded_among<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P, occ: &Occluders) -> bool {
+        if occ.is_empty() || !ray_is_finite(ray) {
+            return false;
+        }
+        let (t_min, t_max) = (ray.t.min, ray.t.max);
+        let lanes = RayLanes::new(ray);
+        // Unused lanes of the last block hold degenerate triangles, which no ray hits.
+        if occ.blocks[..occ.triangles.div_ceil(4)].iter().any(|block| block.intersect(&lanes, t_min, t_max).0 != 0) {
+            return true;
+        }
+        let inv = safe_inv_dir(ray.dir);
+        for (b, r) in occ.boxes[..occ.leaves].iter().zip(&occ.ranges[..occ.leaves]) {
+            // The traversal's own box test, so the same leaves are opened.
+            if b.hit_distance(ray.origin, inv, t_min, t_max.min(f32::MAX)) != f32::INFINITY
+                && (r.start..r.start + r.count).any(|slot| prims.intersect(slot, ray, t_min, t_max).is_some())
+            {
+                return true;
+            }
+        }
+        false
+    }
+}
