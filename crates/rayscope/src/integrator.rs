@@ -206,6 +206,7 @@ impl<'a> Integrator<'a> {
 
     /// One light point as a point light: Phong times the light's colour times what the shadow
     /// ray lets through.
+    #[inline(always)]
     fn shade_sample<R: RayRecorder>(
         &self,
         ray: &Ray,
@@ -242,6 +243,7 @@ impl<'a> Integrator<'a> {
 
     /// The fraction of light from `ls` that reaches `si` (all of it without shadows), through
     /// the shading point's shadow `group` where there is one.
+    #[inline(always)]
     fn visibility<R: RayRecorder>(
         &self,
         si: &SurfaceInteraction,

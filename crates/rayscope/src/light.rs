@@ -91,7 +91,7 @@ enum SamplerKind {
 
 impl LightSampler {
     /// The point chosen by `u` in `[0,1)^2`: see [`Light::sample`].
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, u: Vec2) -> LightSample {
         let p = self.p;
         let at = |point: Vec3A, color: Color, pdf: f32| {
