@@ -26,7 +26,7 @@ use rayscope::math::Vec3A;
 use rayscope::ray::Ray;
 use rayscope::scene::{Geometry, LoadContext, Mesh, Scene, builtin};
 
-const REPS: usize = 5;
+const REPS: usize = 7;
 
 struct Soup {
     name: String,
@@ -71,7 +71,7 @@ fn procedural(n: u32, m: u32) -> Soup {
     Soup { name: format!("procedural torus ({}k)", 2 * n * m / 1000), positions, triangles }
 }
 
-fn ours(soup: &Soup) -> (Scene, Duration) {
+fn ours(soup: &Soup) -> Scene {
     let mesh = Mesh {
         name: soup.name.clone(),
         positions: soup.positions.clone(),
@@ -89,14 +89,7 @@ fn ours(soup: &Soup) -> (Scene, Duration) {
         vec![],
         None,
     );
-    let mut best = Duration::MAX;
-    for _ in 0..REPS {
-        let start = Instant::now();
-        let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
-        best = best.min(start.elapsed());
-        std::hint::black_box(g);
-    }
-    (scene, best)
+    scene
 }
 
 struct Embree {
@@ -108,11 +101,10 @@ unsafe impl Send for Embree {}
 unsafe impl Sync for Embree {}
 
 impl Embree {
+    /// Build once on `threads` threads; returns the scene and the time of `rtcCommitScene`.
     fn build(soup: &Soup, threads: usize) -> (Embree, Duration) {
         let cfg = CString::new(format!("threads={threads}")).unwrap();
-        let mut best = Duration::MAX;
-        let mut kept = None;
-        for _ in 0..REPS {
+        {
             unsafe {
                 let device = sys::rtcNewDevice(cfg.as_ptr());
                 let scene = sys::rtcNewScene(device);
@@ -145,13 +137,9 @@ impl Embree {
                 sys::rtcReleaseGeometry(geom);
                 let start = Instant::now();
                 sys::rtcCommitScene(scene);
-                best = best.min(start.elapsed());
-                if let Some(old) = kept.replace(Embree { device, scene }) {
-                    drop(old);
-                }
+                (Embree { device, scene }, start.elapsed())
             }
         }
-        (kept.unwrap(), best)
     }
 
     fn intersect(&self, r: &Ray, coherent: bool) -> Option<(u32, f32)> {
@@ -259,16 +247,26 @@ fn shadow_rays(scene: &Scene, cam: &[Ray]) -> Vec<Ray> {
         .collect()
 }
 
-/// Fastest of REPS passes of `f` over `rays` on `pool`, in Mrays/s.
-fn throughput<F: Fn(&Ray) -> bool + Sync>(pool: &rayon::ThreadPool, rays: &[Ray], f: F) -> f64 {
-    let mut best = Duration::MAX;
-    for _ in 0..REPS {
+/// Throughput of `ours` and of `theirs` over `rays` on `pool`, in Mrays/s: the fastest of
+/// REPS passes each, the two alternating so that both see the same state of a shared machine.
+fn compare<F, G>(pool: &rayon::ThreadPool, rays: &[Ray], ours: F, theirs: G) -> (f64, f64)
+where
+    F: Fn(&Ray) -> bool + Sync,
+    G: Fn(&Ray) -> bool + Sync,
+{
+    let pass = |f: &(dyn Fn(&Ray) -> bool + Sync)| {
         let start = Instant::now();
         let hits = pool.install(|| rays.par_chunks(4096).map(|c| c.iter().filter(|r| f(r)).count()).sum::<usize>());
         std::hint::black_box(hits);
-        best = best.min(start.elapsed());
+        start.elapsed()
+    };
+    let (mut a, mut b) = (Duration::MAX, Duration::MAX);
+    for _ in 0..REPS {
+        a = a.min(pass(&ours));
+        b = b.min(pass(&theirs));
     }
-    rays.len() as f64 / best.as_secs_f64() / 1e6
+    let rate = |d: Duration| rays.len() as f64 / d.as_secs_f64() / 1e6;
+    (rate(a), rate(b))
 }
 
 fn main() {
@@ -292,7 +290,7 @@ fn main() {
     );
     println!("|---|---:|---:|---|---|---|---|---|");
     for soup in &soups {
-        let (scene, our_build) = ours(soup);
+        let scene = ours(soup);
         let cam = camera_rays(&scene);
         let inc = incoherent_rays(&scene, cam.len());
         let shadow = shadow_rays(&scene, &cam);
@@ -300,7 +298,16 @@ fn main() {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.broadcast(|_| ftz_daz());
             ftz_daz();
-            let (emb, emb_build) = Embree::build(soup, threads);
+            // Both builds, alternating, the fastest of each; the last Embree scene is kept.
+            let (mut build_ours, mut emb_build) = (Duration::MAX, Duration::MAX);
+            let mut kept = None;
+            for _ in 0..REPS {
+                build_ours = build_ours.min(pool.install(|| ours_build_time(&scene)));
+                let (e, t) = Embree::build(soup, threads);
+                emb_build = emb_build.min(t);
+                kept = Some(e);
+            }
+            let emb = kept.unwrap();
             // Same closest hits: same primitive, or (at a shared edge or vertex, where either
             // triangle is right) the same distance within 1e-4 relative.
             let mut disagree = 0usize;
@@ -317,13 +324,10 @@ fn main() {
                 }
             }
             let total = cam.len() + inc.len();
-            let oc = throughput(&pool, &cam, |r| scene.intersect(r).is_some());
-            let ec = throughput(&pool, &cam, |r| emb.intersect(r, true).is_some());
-            let oi = throughput(&pool, &inc, |r| scene.intersect(r).is_some());
-            let ei = throughput(&pool, &inc, |r| emb.intersect(r, false).is_some());
-            let os = throughput(&pool, &shadow, |r| scene.occluded(r));
-            let es = throughput(&pool, &shadow, |r| emb.occluded(r));
-            let build_ours = if threads == 2 { our_build } else { pool.install(|| ours_build_time(&scene)) };
+            let (oc, ec) = compare(&pool, &cam, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, true).is_some());
+            let (oi, ei) =
+                compare(&pool, &inc, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, false).is_some());
+            let (os, es) = compare(&pool, &shadow, |r| scene.occluded(r), |r| emb.occluded(r));
             println!(
                 "| {} | {} | {threads} | {:.1} / {:.1} | {oc:.2} / {ec:.2} / {:.2} | {oi:.2} / {ei:.2} / {:.2} | {os:.2} / {es:.2} / {:.2} | {} of {total} differ |",
                 soup.name,
@@ -339,13 +343,11 @@ fn main() {
     }
 }
 
+/// One build of our BVH (shapes, binary SAH tree, collapse and packing) over `scene`.
 fn ours_build_time(scene: &Scene) -> Duration {
-    let mut best = Duration::MAX;
-    for _ in 0..REPS {
-        let start = Instant::now();
-        let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
-        best = best.min(start.elapsed());
-        std::hint::black_box(g);
-    }
-    best
+    let start = Instant::now();
+    let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
+    let t = start.elapsed();
+    std::hint::black_box(g);
+    t
 }

@@ -44,21 +44,64 @@ struct BuildPrim {
     index: u32,
 }
 
+/// Nodes with more primitives than this bin and bound them on several rayon tasks: at the top
+/// of the tree, where the subtrees are not yet there to run in parallel.
+const PARALLEL_PASS: usize = 1 << 15;
+/// Primitives per task in those passes.
+const PASS_CHUNK: usize = 1 << 13;
+
+/// The box of a set of primitives and the box of their centroids.
+#[derive(Clone, Copy)]
+struct Bounds {
+    bounds: Aabb,
+    centroids: Aabb,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds { bounds: Aabb::EMPTY, centroids: Aabb::EMPTY };
+
+    #[inline(always)]
+    fn add(&mut self, p: &BuildPrim) {
+        self.bounds = self.bounds.union(p.bounds);
+        self.centroids = self.centroids.grow(p.centroid);
+    }
+
+    fn merge(self, o: Bounds) -> Bounds {
+        Bounds { bounds: self.bounds.union(o.bounds), centroids: self.centroids.union(o.centroids) }
+    }
+
+    fn of(prims: &[BuildPrim]) -> Bounds {
+        if prims.len() > PARALLEL_PASS {
+            use rayon::prelude::*;
+            return prims.par_chunks(PASS_CHUNK).map(Bounds::of).reduce(|| Bounds::EMPTY, Bounds::merge);
+        }
+        let mut b = Bounds::EMPTY;
+        for p in prims {
+            b.add(p);
+        }
+        b
+    }
+}
+
 impl Bvh {
     /// Build over primitives with these bounding boxes. Primitives whose box is not finite
     /// (NaN or infinite coordinates) are left out.
     pub fn build(bounds: &[Aabb], params: &BuildParams) -> Bvh {
-        let mut prims: Vec<BuildPrim> = bounds
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| b.is_finite() && !b.is_empty())
-            .map(|(i, b)| BuildPrim { bounds: *b, centroid: b.center(), index: i as u32 })
-            .collect();
+        use rayon::prelude::*;
+        let prim = |(i, b): (usize, &Aabb)| BuildPrim { bounds: *b, centroid: b.center(), index: i as u32 };
+        // Made in place (an exact-size collect), then the rare unusable boxes dropped.
+        let mut prims: Vec<BuildPrim> = if bounds.len() > PARALLEL_PASS {
+            bounds.par_iter().enumerate().map(prim).collect()
+        } else {
+            bounds.iter().enumerate().map(prim).collect()
+        };
+        prims.retain(|p| p.bounds.is_finite() && !p.bounds.is_empty());
         if prims.is_empty() {
             return Bvh::default();
         }
         let mut nodes = Vec::with_capacity(2 * prims.len());
-        build_node(&mut prims, 0, 0, params, &mut nodes);
+        let b = Bounds::of(&prims);
+        build_node(&mut prims, b, 0, 0, params, &mut nodes);
         // Subtrees were built with second-child indices relative to their own node, so they
         // could be built apart and concatenated; make them absolute now.
         for (i, node) in nodes.iter_mut().enumerate() {
@@ -83,47 +126,58 @@ struct Split {
     cost: f32,
 }
 
-/// Appends the subtree over `prims` (which occupy slots `offset..`) to `out`, depth-first.
-fn build_node(prims: &mut [BuildPrim], offset: u32, depth: usize, params: &BuildParams, out: &mut Vec<BvhNode>) {
-    let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
-    let centroids = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
+/// Appends the subtree over `prims` (which occupy slots `offset..` and have bounds `b`) to
+/// `out`, depth-first.
+fn build_node(
+    prims: &mut [BuildPrim],
+    b: Bounds,
+    offset: u32,
+    depth: usize,
+    params: &BuildParams,
+    out: &mut Vec<BvhNode>,
+) {
     let n = prims.len();
-    let leaf = BvhNode::new(bounds, offset, n as u32);
+    let leaf = BvhNode::new(b.bounds, offset, n as u32);
     if n == 1 || depth + 1 >= MAX_DEPTH {
         out.push(leaf);
         return;
     }
-    let split = find_split(prims, &bounds, &centroids, params);
+    let split = find_split(prims, &b.bounds, &b.centroids, params);
     let bins = params.bins.min(n.next_power_of_two().max(4));
     let leaf_cost = params.intersection_cost * blocks(n, params) as f32;
-    let mid = match split {
-        Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &centroids, &s, bins),
-        None if n > params.max_leaf_size => median_split(prims, &centroids),
+    let (mid, lb, rb) = match split {
+        Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &b.centroids, &s, bins),
+        None if n > params.max_leaf_size => {
+            let mid = median_split(prims, &b.centroids);
+            (mid, Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]))
+        }
         _ => {
             out.push(leaf);
             return;
         }
     };
     let here = out.len();
-    out.push(BvhNode::new(bounds, 0, 0));
+    out.push(BvhNode::new(b.bounds, 0, 0));
     let (left, right) = prims.split_at_mut(mid);
     let right_offset = offset + mid as u32;
     if n > params.parallel_threshold {
-        let (l, r) =
-            join(|| subtree(left, offset, depth + 1, params), || subtree(right, right_offset, depth + 1, params));
+        let (l, r) = join(
+            || subtree(left, lb, offset, depth + 1, params),
+            || subtree(right, rb, right_offset, depth + 1, params),
+        );
         out[here].start = 1 + l.len() as u32;
         out.extend(l);
         out.extend(r);
     } else {
-        build_node(left, offset, depth + 1, params, out);
+        build_node(left, lb, offset, depth + 1, params, out);
         out[here].start = (out.len() - here) as u32;
-        build_node(right, right_offset, depth + 1, params, out);
+        build_node(right, rb, right_offset, depth + 1, params, out);
     }
 }
 
-fn subtree(prims: &mut [BuildPrim], offset: u32, depth: usize, params: &BuildParams) -> Vec<BvhNode> {
+fn subtree(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, params: &BuildParams) -> Vec<BvhNode> {
     let mut out = Vec::with_capacity(2 * prims.len());
-    build_node(prims, offset, depth, params, &mut out);
+    build_node(prims, b, offset, depth, params, &mut out);
     out
 }
 
@@ -133,13 +187,62 @@ fn blocks(n: usize, params: &BuildParams) -> usize {
     n.div_ceil(params.block_size.max(1))
 }
 
-#[inline]
-fn bin_of(c: f32, lo: f32, scale: f32, bins: usize) -> usize {
-    (((c - lo) * scale) as usize).min(bins - 1)
+/// The bins of relative positions `rel` (`trunc(min(rel, top))` per axis, 0 for NaN): one
+/// vector conversion, where `as usize` per axis costs a saturating sequence each.
+#[inline(always)]
+fn bin_indices(rel: Vec3A, top: Vec3A) -> [u32; 4] {
+    // `max` first with ZERO second: SSE's max returns its second operand for a NaN.
+    let clamped = rel.max(Vec3A::ZERO).min(top);
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, __m128i, _mm_cvttps_epi32};
+        let v: __m128 = clamped.into();
+        // SAFETY: SSE2 is part of x86-64; the lanes are in [0, top], so they convert exactly.
+        let i: __m128i = unsafe { _mm_cvttps_epi32(v) };
+        // SAFETY: __m128i and [u32; 4] have the same size, and every bit pattern is valid.
+        unsafe { std::mem::transmute::<__m128i, [u32; 4]>(i) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let u = clamped.as_uvec3();
+        [u.x, u.y, u.z, 0]
+    }
 }
 
 /// Most bins per axis the builder supports (its bins live on the stack).
 pub const MAX_BINS: usize = 32;
+
+type Bins = [[Bin; MAX_BINS]; 3];
+
+const EMPTY_BINS: Bins = [[Bin { bounds: Aabb::EMPTY, count: 0 }; MAX_BINS]; 3];
+
+/// Bin `prims` on all three axes at once (`nb` bins from `lo`, `scale` bins per unit).
+fn fill_bins(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, nb: usize) -> Bins {
+    if prims.len() > PARALLEL_PASS {
+        use rayon::prelude::*;
+        return prims.par_chunks(PASS_CHUNK).map(|c| fill_bins(c, lo, scale, nb)).reduce(
+            || EMPTY_BINS,
+            |mut a, b| {
+                for (a, b) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+                    a.bounds = a.bounds.union(b.bounds);
+                    a.count += b.count;
+                }
+                a
+            },
+        );
+    }
+    let mut bins = EMPTY_BINS;
+    let top = Vec3A::splat((nb - 1) as f32);
+    for p in prims {
+        let idx = bin_indices((p.centroid - lo) * scale, top);
+        for (axis, axis_bins) in bins.iter_mut().enumerate() {
+            let b = &mut axis_bins[idx[axis] as usize];
+            b.bounds = b.bounds.union(p.bounds);
+            b.count += 1;
+        }
+    }
+    bins
+}
 
 /// The cheapest binned SAH split over the three axes, or `None` when all centroids coincide.
 /// All three axes are binned in one pass over the primitives, into bins on the stack: the
@@ -150,19 +253,9 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     let nb = params.bins.min(prims.len().next_power_of_two().max(4)).clamp(2, MAX_BINS);
     let extent = centroids.extent();
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
-    let empty = Bin { bounds: Aabb::EMPTY, count: 0 };
-    let mut bins = [[empty; MAX_BINS]; 3];
-    let lo = centroids.min;
     // A zero extent gives an infinite scale; such an axis is skipped below.
     let scale = Vec3A::splat(nb as f32) / extent;
-    for p in prims {
-        let rel = (p.centroid - lo) * scale;
-        for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[(rel[axis] as usize).min(nb - 1)];
-            b.bounds = b.bounds.union(p.bounds);
-            b.count += 1;
-        }
-    }
+    let bins = fill_bins(prims, centroids.min, scale, nb);
     let mut best: Option<Split> = None;
     let mut right_area = [0.0f32; MAX_BINS];
     let mut right_count = [0u32; MAX_BINS];
@@ -198,21 +291,29 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     best
 }
 
-fn partition(prims: &mut [BuildPrim], centroids: &Aabb, s: &Split, bins: usize) -> usize {
+/// Put the primitives left of split `s` first; returns their number and both sides' bounds
+/// (measured on the way, so the children need no pass of their own).
+fn partition(prims: &mut [BuildPrim], centroids: &Aabb, s: &Split, bins: usize) -> (usize, Bounds, Bounds) {
     let bins = bins.clamp(2, MAX_BINS);
     let lo = centroids.min[s.axis];
-    // The same arithmetic as the binning, so every primitive lands on its bin's side.
+    // The same arithmetic as the binning, so every primitive lands on its bin's side: for
+    // `rel >= 0` and a whole `s.bin` in 1..bins, `trunc(min(rel, bins - 1)) < s.bin` exactly
+    // when `rel < s.bin` (the split axis has extent, so `rel` is never NaN).
     let scale = (Vec3A::splat(bins as f32) / centroids.extent())[s.axis];
+    let plane = s.bin as f32;
+    let (mut left, mut right) = (Bounds::EMPTY, Bounds::EMPTY);
     let mut mid = 0;
     for i in 0..prims.len() {
-        if bin_of(prims[i].centroid[s.axis], lo, scale, bins) < s.bin {
+        if (prims[i].centroid[s.axis] - lo) * scale < plane {
+            left.add(&prims[i]);
             prims.swap(i, mid);
             mid += 1;
+        } else {
+            right.add(&prims[i]);
         }
     }
-    mid
+    (mid, left, right)
 }
-
 /// Halve by count along the widest centroid axis: the fallback when the SAH finds no plane
 /// (all centroids in one point) but the set is too large for one leaf.
 fn median_split(prims: &mut [BuildPrim], centroids: &Aabb) -> usize {

@@ -53,6 +53,8 @@ pub(super) const LEAF_BIT: u32 = 1 << 31;
 const PACKED_BIT: u32 = 1 << 30;
 /// Bits of a packed leaf reference that hold its first block.
 const BLOCK_BITS: u32 = 26;
+/// Binary trees with more nodes than this collapse on several threads.
+const PARALLEL_COLLAPSE: usize = 1 << 13;
 /// Most blocks one packed leaf holds (4 bits of count - 1); larger leaves use ranges.
 const MAX_BLOCKS: u32 = 16;
 
@@ -490,17 +492,67 @@ where
     /// Collapse a binary BVH: each node takes its binary node's children and keeps opening
     /// the largest interior one (by surface area) until it has `W`. Leaves of static
     /// triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
-    pub fn from_binary<P: Primitives + ?Sized>(bin: &Bvh, prims: &P) -> Self {
+    pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
         let mut out = WideBvh { simd: SimdLevel::detect(), ..WideBvh::default() };
         let Some(root) = bin.nodes.first() else { return out };
         out.nodes.push(WideNode::empty());
         if root.is_leaf() {
             let r = out.leaf(prims, root.start, root.count);
             out.nodes[0].set(0, &root.bounds(), r);
-        } else {
+        } else if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << BLOCK_BITS {
             out.fill(bin, prims, 0, 0);
+        } else {
+            // The root's subtrees collapse on separate tasks, then join the root's tree with
+            // their references moved past what is already there.
+            use rayon::prelude::*;
+            let (kids, len) = Self::open(bin, 0);
+            let parts: Vec<Option<WideBvh<W>>> = kids[..len]
+                .par_iter()
+                .map(|&k| {
+                    (!bin.nodes[k].is_leaf()).then(|| {
+                        let mut part = WideBvh { nodes: vec![WideNode::empty()], ..WideBvh::default() };
+                        part.fill(bin, prims, k, 0);
+                        part
+                    })
+                })
+                .collect();
+            let mut top = WideNode::empty();
+            for (slot, (&k, part)) in kids[..len].iter().zip(parts).enumerate() {
+                let child = &bin.nodes[k];
+                let r = match part {
+                    Some(part) => out.append(part),
+                    None => out.leaf(prims, child.start, child.count),
+                };
+                top.set(slot, &child.bounds(), r);
+            }
+            out.nodes[0] = top;
         }
         out
+    }
+
+    /// Add the nodes, blocks and ranges of `part` (a tree of its own, root at 0) after this
+    /// tree's, moving its references along; returns the reference to its root.
+    fn append(&mut self, part: WideBvh<W>) -> u32 {
+        let (nodes, blocks, ranges) = (self.nodes.len() as u32, self.blocks.len() as u32, self.ranges.len() as u32);
+        let moved = |c: u32| {
+            if c == EMPTY {
+                c
+            } else if is_packed(c) {
+                // The caller checked that every block index fits in BLOCK_BITS.
+                c + blocks
+            } else if c & LEAF_BIT != 0 {
+                c + ranges
+            } else {
+                c + nodes
+            }
+        };
+        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
+            n.child = n.child.map(moved);
+            n
+        }));
+        self.blocks.extend(part.blocks);
+        self.ranges.extend(part.ranges);
+        nodes
     }
 
     /// The traversal variant in use.
@@ -534,10 +586,11 @@ where
         }
     }
 
-    fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, prims: &P, bin_index: usize, at: usize) {
+    /// The binary nodes that become the children of the wide node for binary node
+    /// `bin_index`: its children, the largest interior one (by surface area) opened until
+    /// there are `W` (no allocation: this runs once per node of the collapsed tree).
+    fn open(bin: &Bvh, bin_index: usize) -> ([usize; W], usize) {
         let node = &bin.nodes[bin_index];
-        // The children, opened largest first until there are W (no allocation: this runs
-        // once per node of the collapsed tree).
         let mut kids = [0usize; W];
         kids[0] = bin_index + 1;
         kids[1] = node.start as usize;
@@ -553,6 +606,11 @@ where
             kids[len] = n.start as usize;
             len += 1;
         }
+        (kids, len)
+    }
+
+    fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, prims: &P, bin_index: usize, at: usize) {
+        let (kids, len) = Self::open(bin, bin_index);
         let mut wide = WideNode::empty();
         let mut interior = [(0usize, 0usize); W];
         let mut n_interior = 0;
