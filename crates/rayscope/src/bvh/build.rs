@@ -256,7 +256,14 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     // A zero extent gives an infinite scale; such an axis is skipped below.
     let scale = Vec3A::splat(nb as f32) / extent;
     let bins = fill_bins(prims, centroids.min, scale, nb);
-    let mut best: Option<Split> = None;
+    // Blocks by a shift where the block size is a power of two (always, in practice): the
+    // sweep below counts them twice per candidate plane, and a division there showed.
+    let bs = params.block_size.max(1) as u32;
+    let shift = bs.trailing_zeros();
+    let blocks = |n: u32| if bs.is_power_of_two() { (n + bs - 1) >> shift } else { n.div_ceil(bs) };
+    // Candidates are ranked by area-weighted block counts; the division by the parent's area
+    // (which does not change the ranking) is done once, for the winner.
+    let mut best: Option<(usize, usize, f32)> = None;
     let mut right_area = [0.0f32; MAX_BINS];
     let mut right_count = [0u32; MAX_BINS];
     for (axis, bins) in bins.iter().enumerate() {
@@ -278,17 +285,17 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
             if cnt == 0 || right_count[i] == 0 {
                 continue;
             }
-            let cost = params.traversal_cost
-                + params.intersection_cost
-                    * (acc.half_area() * blocks(cnt as usize, params) as f32
-                        + right_area[i] * blocks(right_count[i] as usize, params) as f32)
-                    / parent_area;
-            if best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(Split { axis, bin: i, cost });
+            let weight = acc.half_area() * blocks(cnt) as f32 + right_area[i] * blocks(right_count[i]) as f32;
+            if best.is_none_or(|b| weight < b.2) {
+                best = Some((axis, i, weight));
             }
         }
     }
-    best
+    best.map(|(axis, bin, weight)| Split {
+        axis,
+        bin,
+        cost: params.traversal_cost + params.intersection_cost * weight / parent_area,
+    })
 }
 
 /// Put the primitives left of split `s` first; returns their number and both sides' bounds
@@ -301,18 +308,28 @@ fn partition(prims: &mut [BuildPrim], centroids: &Aabb, s: &Split, bins: usize) 
     // when `rel < s.bin` (the split axis has extent, so `rel` is never NaN).
     let scale = (Vec3A::splat(bins as f32) / centroids.extent())[s.axis];
     let plane = s.bin as f32;
+    let goes_left = |p: &BuildPrim| (p.centroid[s.axis] - lo) * scale < plane;
     let (mut left, mut right) = (Bounds::EMPTY, Bounds::EMPTY);
-    let mut mid = 0;
-    for i in 0..prims.len() {
-        if (prims[i].centroid[s.axis] - lo) * scale < plane {
+    // Hoare's scheme: from both ends, swapping only pairs that are on the wrong sides.
+    let (mut i, mut j) = (0, prims.len());
+    loop {
+        while i < j && goes_left(&prims[i]) {
             left.add(&prims[i]);
-            prims.swap(i, mid);
-            mid += 1;
-        } else {
-            right.add(&prims[i]);
+            i += 1;
         }
+        while i < j && !goes_left(&prims[j - 1]) {
+            right.add(&prims[j - 1]);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, left, right);
+        }
+        prims.swap(i, j - 1);
+        left.add(&prims[i]);
+        right.add(&prims[j - 1]);
+        i += 1;
+        j -= 1;
     }
-    (mid, left, right)
 }
 /// Halve by count along the widest centroid axis: the fallback when the SAH finds no plane
 /// (all centroids in one point) but the set is too large for one leaf.
