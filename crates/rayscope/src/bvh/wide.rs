@@ -277,7 +277,7 @@ impl<T: Copy> Stack<T> {
 }
 
 /// The ray's data for the packed triangle test, splatted across four lanes once per ray.
-pub(super) struct RayLanes {
+pub struct RayLanes {
     ox: f32x4,
     oy: f32x4,
     oz: f32x4,
@@ -324,7 +324,51 @@ pub trait NodeTest<const W: usize>: Sized {
     /// # Safety
     /// As for [`NodeTest::new`].
     unsafe fn test(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+
+    /// Two packed blocks at once, as [`Tri4::intersect`] gives them: lanes 0..4 are `a`'s,
+    /// 4..8 are `b`'s. Both are tested against `[t_min, t_max]`.
+    ///
+    /// # Safety
+    /// As for [`NodeTest::new`].
+    #[inline(always)]
+    unsafe fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        let (ma, ta, ua, va) = a.intersect(r, t_min, t_max);
+        let (mb, tb, ub, vb) = b.intersect(r, t_min, t_max);
+        let cat = |x: [f32; 4], y: [f32; 4]| [x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3]];
+        (ma | mb << 4, cat(ta, tb), cat(ua, ub), cat(va, vb))
+    }
 }
+
+/// Lanes of a packed test that hit, with their `t`, `u`, `v`.
+struct Hits<'a> {
+    mask: u32,
+    t: &'a [f32],
+    u: &'a [f32],
+    v: &'a [f32],
+}
+
+impl Hits<'_> {
+    /// Keep each hit lane, in order, that is at or before the closest so far (`t_max`), as
+    /// `best`, with the primitive slot `slot(lane)`.
+    #[inline(always)]
+    fn take(self, slot: impl Fn(usize) -> u32, t_max: &mut f32, best: &mut Option<BvhHit>) {
+        let mut mask = self.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if self.t[lane] <= *t_max {
+                *t_max = self.t[lane];
+                *best = Some(BvhHit {
+                    slot: slot(lane),
+                    hit: PrimHit { t: self.t[lane], u: self.u[lane], v: self.v[lane] },
+                });
+            }
+        }
+    }
+}
+
+/// The lanes hit and their `t`, `u`, `v`, for eight triangles.
+pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
 
 macro_rules! portable_node_test {
     ($name:ident, $w:literal, $v:ty) => {
@@ -371,6 +415,7 @@ portable_node_test!(Portable8, 8, f32x8);
 #[cfg(target_arch = "x86_64")]
 pub struct Avx2Node8 {
     o: [std::arch::x86_64::__m256; 3],
+    dir: [std::arch::x86_64::__m256; 3],
     inv: [std::arch::x86_64::__m256; 3],
     near: [usize; 3],
     far: [usize; 3],
@@ -388,6 +433,7 @@ impl NodeTest<8> for Avx2Node8 {
         unsafe {
             Avx2Node8 {
                 o: [splat(ray.origin.x), splat(ray.origin.y), splat(ray.origin.z)],
+                dir: [splat(ray.dir.x), splat(ray.dir.y), splat(ray.dir.z)],
                 inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
                 near,
                 far,
@@ -416,6 +462,57 @@ impl NodeTest<8> for Avx2Node8 {
             let mut d = [0.0f32; 8];
             _mm256_storeu_ps(d.as_mut_ptr(), near);
             (d, _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32)
+        }
+    }
+
+    /// Möller–Trumbore on eight triangles in 256-bit registers: the operations of
+    /// [`Tri4::intersect`], lane for lane, so the hits are the same bits.
+    #[inline(always)]
+    unsafe fn intersect_pair(&self, _: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller vouches for AVX2; the loads read 16 bytes from rows of 4 floats.
+        unsafe {
+            let l = |x: &[f32; 4], y: &[f32; 4]| {
+                _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(_mm_loadu_ps(x.as_ptr())), _mm_loadu_ps(y.as_ptr()))
+            };
+            let (mul, sub, add) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps);
+            let [dx, dy, dz] = self.dir;
+            let (e1x, e1y, e1z) = (l(&a.e1[0], &b.e1[0]), l(&a.e1[1], &b.e1[1]), l(&a.e1[2], &b.e1[2]));
+            let (e2x, e2y, e2z) = (l(&a.e2[0], &b.e2[0]), l(&a.e2[1], &b.e2[1]), l(&a.e2[2], &b.e2[2]));
+            let px = sub(mul(dy, e2z), mul(dz, e2y));
+            let py = sub(mul(dz, e2x), mul(dx, e2z));
+            let pz = sub(mul(dx, e2y), mul(dy, e2x));
+            let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+            let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+            let sx = sub(self.o[0], l(&a.v0[0], &b.v0[0]));
+            let sy = sub(self.o[1], l(&a.v0[1], &b.v0[1]));
+            let sz = sub(self.o[2], l(&a.v0[2], &b.v0[2]));
+            let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv_det);
+            let qx = sub(mul(sy, e1z), mul(sz, e1y));
+            let qy = sub(mul(sz, e1x), mul(sx, e1z));
+            let qz = sub(mul(sx, e1y), mul(sy, e1x));
+            let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv_det);
+            let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv_det);
+            let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+            let abs_det = _mm256_andnot_ps(_mm256_set1_ps(-0.0), det);
+            let and = _mm256_and_ps;
+            let ok_det = and(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(abs_det, zero),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(abs_det, _mm256_set1_ps(f32::INFINITY)),
+            );
+            let ok_u = and(_mm256_cmp_ps::<_CMP_GE_OQ>(u, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(u, one));
+            let ok_v = and(_mm256_cmp_ps::<_CMP_GE_OQ>(v, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(add(u, v), one));
+            let ok_t = and(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(t, _mm256_set1_ps(t_min)),
+                _mm256_cmp_ps::<_CMP_LE_OQ>(t, _mm256_set1_ps(t_max)),
+            );
+            let mask = _mm256_movemask_ps(and(and(ok_det, ok_u), and(ok_v, ok_t))) as u32;
+            let store = |x: __m256| {
+                let mut out = [0.0f32; 8];
+                _mm256_storeu_ps(out.as_mut_ptr(), x);
+                out
+            };
+            (mask, store(t), store(u), store(v))
         }
     }
 }
@@ -691,22 +788,25 @@ where
         let mut current = 0u32;
         loop {
             if is_packed(current) {
-                for block in &self.blocks[packed_blocks(current)] {
+                // Blocks two at a time (one 8-lane test where the CPU has AVX2), then the last
+                // one alone. Lanes are taken in order, each at <= the best so far: the same
+                // choice among equal distances as the scalar loop makes, and the same as
+                // testing block by block (a lane beyond a closer hit in an earlier block is
+                // dropped here rather than by the test).
+                let blocks = &self.blocks[packed_blocks(current)];
+                let mut pairs = blocks.chunks_exact(2);
+                for pair in &mut pairs {
                     obs.prim_tested();
-                    let (mut mask, t, u, v) = block.intersect(&lanes, t_min, t_max);
-                    while mask != 0 {
-                        let lane = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        // Lanes in order, each accepted at <= the best so far: the same
-                        // choice among equal distances as the scalar loop makes.
-                        if t[lane] <= t_max {
-                            t_max = t[lane];
-                            best = Some(BvhHit {
-                                slot: block.slot[lane],
-                                hit: PrimHit { t: t[lane], u: u[lane], v: v[lane] },
-                            });
-                        }
-                    }
+                    obs.prim_tested();
+                    // SAFETY: as for `T::new`.
+                    let (mask, t, u, v) = unsafe { boxes.intersect_pair(&lanes, &pair[0], &pair[1], t_min, t_max) };
+                    let hits = Hits { mask, t: &t, u: &u, v: &v };
+                    hits.take(|lane| pair[lane / 4].slot[lane % 4], &mut t_max, &mut best);
+                }
+                for block in pairs.remainder() {
+                    obs.prim_tested();
+                    let (mask, t, u, v) = block.intersect(&lanes, t_min, t_max);
+                    Hits { mask, t: &t, u: &u, v: &v }.take(|lane| block.slot[lane], &mut t_max, &mut best);
                 }
             } else if current & LEAF_BIT != 0 {
                 let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
@@ -794,10 +894,16 @@ where
         let mut current = 0u32;
         loop {
             if is_packed(current) {
-                for block in &self.blocks[packed_blocks(current)] {
-                    if block.intersect(&lanes, t_min, t_max).0 != 0 {
+                let blocks = &self.blocks[packed_blocks(current)];
+                let mut pairs = blocks.chunks_exact(2);
+                for pair in &mut pairs {
+                    // SAFETY: as for `T::new`.
+                    if unsafe { boxes.intersect_pair(&lanes, &pair[0], &pair[1], t_min, t_max) }.0 != 0 {
                         return true;
                     }
+                }
+                if pairs.remainder().iter().any(|block| block.intersect(&lanes, t_min, t_max).0 != 0) {
+                    return true;
                 }
             } else if current & LEAF_BIT != 0 {
                 let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
