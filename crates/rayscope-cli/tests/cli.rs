@@ -168,6 +168,22 @@ fn progressive_render_equals_one_shot() {
 }
 
 #[test]
+fn repeated_renders_report_the_fastest_and_write_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = ["cornell-box-sphere-light", "--width", "24", "--height", "24", "--light-samples", "4", "--spp", "2"];
+    let mut a = vec!["render", "-o", "a.pfm"];
+    a.extend(common);
+    let mut b = vec!["render", "-o", "b.pfm", "--repeat", "3"];
+    b.extend(common);
+    assert!(rayscope(dir.path(), &a).status.success());
+    let o = rayscope(dir.path(), &b);
+    assert!(o.status.success() && stderr(&o).contains("(fastest of 3)"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(dir.path().join("a.pfm")).unwrap(), std::fs::read(dir.path().join("b.pfm")).unwrap());
+    fails_with(dir.path(), &["render", "-o", "c.png", "--repeat", "0"], &["--repeat"]);
+    fails_with(dir.path(), &["render", "-o", "c.png", "--repeat", "2", "--progressive"], &["--repeat"]);
+}
+
+#[test]
 fn ctrl_c_writes_what_was_rendered() {
     let dir = tempfile::tempdir().unwrap();
     let child = Command::new(env!("CARGO_BIN_EXE_rayscope"))

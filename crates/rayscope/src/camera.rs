@@ -133,9 +133,53 @@ impl Camera {
         Vec2::new((px as f32 + jitter.x) / width as f32 * 2.0 - 1.0, 1.0 - (py as f32 + jitter.y) / height as f32 * 2.0)
     }
 
-    /// The primary ray through the centre of pixel `(px, py)`.
+    /// The primary ray through the centre of pixel `(px, py)`, as the renderer makes it
+    /// ([`RayGenerator`]; build one to make many).
     pub fn pixel_ray(&self, px: u32, py: u32, width: u32, height: u32) -> Ray {
-        self.ray(Camera::ndc(px, py, width, height, Vec2::splat(0.5)), width as f32 / height as f32)
+        RayGenerator::new(self, width, height).ray(px, py, Vec2::splat(0.5))
+    }
+}
+
+/// The primary rays of one camera pose for one image size, with everything that depends only
+/// on them done once: the rotation as three axes, `tan(fov/2)` and the aspect ratio folded
+/// into them, and the pixel-to-screen scale as a product. Per ray that leaves a
+/// multiply-add per axis and a normalisation (a quaternion rotation and three divisions were
+/// a tenth of a simple scene's render time).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayGenerator {
+    origin: Vec3A,
+    /// World direction of screen `x = 1` minus the forward axis.
+    right: Vec3A,
+    /// World direction of screen `y = 1` minus the forward axis.
+    up: Vec3A,
+    forward: Vec3A,
+    /// `2 / width` and `2 / height`.
+    scale: Vec2,
+}
+
+impl RayGenerator {
+    /// Rays of `camera` for a `width x height` image.
+    pub fn new(camera: &Camera, width: u32, height: u32) -> RayGenerator {
+        let h = camera.tan_half_fov();
+        let aspect = width as f32 / height as f32;
+        let axis = |v: Vec3| Vec3A::from(camera.rotation * v);
+        RayGenerator {
+            origin: camera.position,
+            // Screen right is local -x (the course's convention), scaled to the image plane.
+            right: axis(Vec3::new(-h * aspect, 0.0, 0.0)),
+            up: axis(Vec3::new(0.0, h, 0.0)),
+            forward: axis(Vec3::Z),
+            scale: Vec2::new(2.0 / width as f32, 2.0 / height as f32),
+        }
+    }
+
+    /// The ray through pixel `(px, py)` (row 0 at the top) at offset `jitter` in `[0, 1)^2`
+    /// (0.5 is the centre): [`Camera::ray`] at [`Camera::ndc`], up to rounding.
+    #[inline]
+    pub fn ray(&self, px: u32, py: u32, jitter: Vec2) -> Ray {
+        let x = (px as f32 + jitter.x) * self.scale.x - 1.0;
+        let y = 1.0 - (py as f32 + jitter.y) * self.scale.y;
+        Ray::new(self.origin, (x * self.right + y * self.up + self.forward).normalize())
     }
 }
 
@@ -215,6 +259,19 @@ mod tests {
         assert!(mid.position.length() < 3.0 && mid.position.length() > 2.8);
         let still = CameraMotion::still(a);
         assert_eq!(still.at(0.7), a);
+    }
+
+    #[test]
+    fn ray_generator_matches_the_camera_formula() {
+        let cam = Camera::from_desc(&CameraDesc::default());
+        let (w, h) = (640, 480);
+        let rays = RayGenerator::new(&cam, w, h);
+        for (x, y, j) in [(0, 0, Vec2::ZERO), (639, 479, Vec2::splat(0.999)), (320, 100, Vec2::new(0.25, 0.75))] {
+            let a = rays.ray(x, y, j);
+            let b = cam.ray(Camera::ndc(x, y, w, h, j), w as f32 / h as f32);
+            assert_eq!(a.origin, b.origin);
+            assert!(a.dir.dot(b.dir) > 1.0 - 1e-6 && a.dir.is_normalized(), "{x},{y}");
+        }
     }
 
     #[test]

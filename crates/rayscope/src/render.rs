@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::TraversalStats;
-use crate::camera::{Camera, CameraMotion};
+use crate::camera::{Camera, CameraMotion, RayGenerator};
 use crate::film::{Film, FloatImage};
 use crate::filter::PixelFilter;
 use crate::integrator::{Integrator, PathContext, RayCounts};
@@ -225,7 +225,7 @@ pub fn render_pass(
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> (RayCounts, bool) {
     let integrator = Integrator::new(scene, settings);
-    let still_tan_half = camera.end.is_none().then(|| camera.start.tan_half_fov());
+    let still = camera.end.is_none().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
     let w = settings.width as usize;
     let total = w * settings.height as usize;
     let done = AtomicUsize::new(0);
@@ -249,7 +249,7 @@ pub fn render_pass(
                 let first = *count;
                 let last = first.saturating_add(pass.samples).min(pass.limit.max(first));
                 for k in first..last {
-                    let (c, r) = sample_pixel(&integrator, camera, still_tan_half, x, y, k, pass, &mut NoRecorder);
+                    let (c, r) = sample_pixel(&integrator, camera, still.as_ref(), x, y, k, pass, &mut NoRecorder);
                     *sum += c;
                     rays.add(r);
                 }
@@ -278,7 +278,7 @@ const BAND_ROWS: usize = 16;
 fn sample_pixel<R: RayRecorder>(
     integrator: &Integrator,
     camera: &CameraMotion,
-    still_tan_half: Option<f32>,
+    still: Option<&RayGenerator>,
     x: u32,
     y: u32,
     k: u32,
@@ -287,16 +287,13 @@ fn sample_pixel<R: RayRecorder>(
 ) -> (Color, RayCounts) {
     let s = integrator.settings;
     let sampler = PixelSampler::new(pass.seed, y * s.width + x, k, pass.planned);
-    let offset = s.filter.warp(sampler.pixel_offset);
-    let ndc = Camera::ndc(x, y, s.width, s.height, Vec2::splat(0.5) + offset);
+    let jitter = Vec2::splat(0.5) + s.filter.warp(sampler.pixel_offset);
     let time = sampler.time;
-    let cam = camera.at(time);
-    // A still camera's tan(fov/2) is computed once per pass, not per ray.
-    let tan_half = match (camera.end, still_tan_half) {
-        (None, Some(t)) => t,
-        _ => cam.tan_half_fov(),
+    // A still camera's ray generator is made once per pass, a moving one's per sample.
+    let mut ray = match still {
+        Some(rays) => rays.ray(x, y, jitter),
+        None => RayGenerator::new(&camera.at(time), s.width, s.height).ray(x, y, jitter),
     };
-    let mut ray = cam.ray_with(ndc, s.width as f32 / s.height as f32, tan_half);
     ray.time = time;
     let mut ctx = PathContext::new(sampler, rec);
     let c = integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
@@ -377,8 +374,9 @@ pub fn render_aov(
     aov: Aov,
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> FloatImage {
+    let rays = RayGenerator::new(camera, settings.width, settings.height);
     let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x, y| {
-        let ray = camera.pixel_ray(x, y, settings.width, settings.height);
+        let ray = rays.ray(x, y, Vec2::splat(0.5));
         let mut stats = TraversalStats::default();
         let hit = scene.intersect_counted(&ray, &mut stats);
         let nan = [f32::NAN; 3];
