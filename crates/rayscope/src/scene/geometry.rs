@@ -62,6 +62,19 @@ pub struct Geometry {
     pub shapes: Vec<Shape>,
     /// Moving shapes, referenced by [`Shape::Moving`].
     pub moving: Vec<MovingShape>,
+    /// Which primitive each slot holds and its material, in slot order: shading reads these
+    /// for every hit, and neighbouring rays hit neighbouring slots (the global order put
+    /// a cache miss on every hit).
+    pub slots: Vec<SlotInfo>,
+}
+
+/// The primitive in one BVH slot: [`Geometry::slots`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlotInfo {
+    /// The primitive.
+    pub prim: PrimRef,
+    /// Its material.
+    pub material: u32,
 }
 
 impl Primitives for Geometry {
@@ -84,7 +97,8 @@ impl Geometry {
         use rayon::prelude::*;
         let mut moving = Vec::new();
         let shapes = all_shapes(meshes, spheres, prims, &mut moving);
-        let mut geometry = Geometry { bvh: Bvh::default(), wide: Bvh8::default(), shapes: Vec::new(), moving };
+        let mut geometry =
+            Geometry { bvh: Bvh::default(), wide: Bvh8::default(), shapes: Vec::new(), moving, slots: Vec::new() };
         // Large scenes take these passes on all threads: with the BVH build itself parallel,
         // serial passes here were a third of the build's time on two cores.
         let g = &geometry;
@@ -99,6 +113,19 @@ impl Geometry {
             order.par_iter().map(|&i| shapes[i as usize]).collect()
         } else {
             order.iter().map(|&i| shapes[i as usize]).collect()
+        };
+        let slot = |&i: &u32| {
+            let prim = prims[i as usize];
+            let material = match prim {
+                PrimRef::Triangle { mesh, face } => meshes[mesh as usize].materials[face as usize],
+                PrimRef::Sphere(s) => spheres[s as usize].material,
+            };
+            SlotInfo { prim, material }
+        };
+        geometry.slots = if order.len() > PARALLEL_PASS {
+            order.par_iter().map(slot).collect()
+        } else {
+            order.iter().map(slot).collect()
         };
         geometry.wide = Bvh8::from_binary(&geometry.bvh, &geometry);
         geometry
@@ -165,7 +192,13 @@ impl Geometry {
 
     #[inline]
     fn global_hit(&self, hit: Option<crate::bvh::BvhHit>) -> Option<Hit> {
-        hit.map(|h| Hit { t: h.hit.t, prim: self.bvh.prim_indices[h.slot as usize], u: h.hit.u, v: h.hit.v })
+        hit.map(|h| Hit {
+            t: h.hit.t,
+            prim: self.bvh.prim_indices[h.slot as usize],
+            slot: h.slot,
+            u: h.hit.u,
+            v: h.hit.v,
+        })
     }
 }
 

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
-pub use geometry::{Geometry, Shape};
+pub use geometry::{Geometry, Shape, SlotInfo};
 
 use crate::bvh::shadow::Occluders;
 use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
@@ -91,6 +91,8 @@ pub struct Hit {
     pub t: f32,
     /// Global primitive id: triangles of all meshes in order, then spheres.
     pub prim: u32,
+    /// Where the primitive sits in the BVH's order ([`Geometry::shapes`], [`Geometry::slots`]).
+    pub slot: u32,
     /// Barycentric weight of vertex 1 (triangles).
     pub u: f32,
     /// Barycentric weight of vertex 2 (triangles).
@@ -299,19 +301,37 @@ impl Scene {
     /// Shading information at `hit` on `ray`.
     pub fn surface(&self, ray: &Ray, hit: &Hit, settings: &RenderSettings) -> SurfaceInteraction {
         let point = ray.at(hit.t);
-        let (geo, shading, uv, material) = match self.prims[hit.prim as usize] {
+        // Read in slot order (neighbouring rays, neighbouring slots); the mesh's own arrays
+        // only for what the slot does not hold.
+        let SlotInfo { prim, material } = self.geometry.slots[hit.slot as usize];
+        let (geo, shading, uv, material) = match prim {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
-                let [a, b, c] = m.triangles[face as usize].map(|i| i as usize);
-                let geo = (m.positions[b] - m.positions[a]).cross(m.positions[c] - m.positions[a]).normalize_or_zero();
-                let w = Vec3A::new(1.0 - hit.u - hit.v, hit.u, hit.v);
-                let shading = if settings.interpolate_normals && !m.normals.is_empty() {
-                    (w.x * m.normals[a] + w.y * m.normals[b] + w.z * m.normals[c]).normalize_or(geo)
-                } else {
-                    geo
+                let corners = || m.triangles[face as usize].map(|i| i as usize);
+                let geo = match self.geometry.shapes[hit.slot as usize] {
+                    // The same edges as the mesh's, for a mesh with no motion offset.
+                    Shape::Triangle(t) if m.motion.is_none() => t.normal().normalize_or_zero(),
+                    _ => {
+                        let [a, b, c] = corners();
+                        (m.positions[b] - m.positions[a]).cross(m.positions[c] - m.positions[a]).normalize_or_zero()
+                    }
                 };
-                let uv = if m.uvs.is_empty() { Vec2::ZERO } else { w.x * m.uvs[a] + w.y * m.uvs[b] + w.z * m.uvs[c] };
-                (geo, shading, uv, m.materials[face as usize])
+                let w = Vec3A::new(1.0 - hit.u - hit.v, hit.u, hit.v);
+                let smooth = settings.interpolate_normals && !m.normals.is_empty();
+                let (shading, uv) = if smooth || !m.uvs.is_empty() {
+                    let [a, b, c] = corners();
+                    let shading = if smooth {
+                        (w.x * m.normals[a] + w.y * m.normals[b] + w.z * m.normals[c]).normalize_or(geo)
+                    } else {
+                        geo
+                    };
+                    let uv =
+                        if m.uvs.is_empty() { Vec2::ZERO } else { w.x * m.uvs[a] + w.y * m.uvs[b] + w.z * m.uvs[c] };
+                    (shading, uv)
+                } else {
+                    (geo, Vec2::ZERO)
+                };
+                (geo, shading, uv, material)
             }
             PrimRef::Sphere(s) => {
                 let s = &self.spheres[s as usize];
@@ -322,7 +342,7 @@ impl Scene {
                     0.5 + n.z.atan2(n.x) / std::f32::consts::TAU,
                     0.5 + n.y.clamp(-1.0, 1.0).asin() / std::f32::consts::PI,
                 );
-                (n, n, uv, s.material)
+                (n, n, uv, material)
             }
         };
         // Shade the side the ray arrives from: the course's meshes are not consistently
