@@ -102,6 +102,8 @@ pub struct Machine {
     pub repetitions: usize,
     /// Warm-up renders per row.
     pub warmup: usize,
+    /// The BVH traversal's instruction set (chosen at run time).
+    pub simd: String,
 }
 
 /// The whole report.
@@ -128,7 +130,8 @@ fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
         .and_then(|s| s.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l[12..].trim_matches('"').to_string()))
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup }
+    let simd = format!("{:?}", rayscope::bvh::wide::SimdLevel::detect());
+    Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup, simd }
 }
 
 /// Run the table. `progress` prints a line per step.
@@ -206,8 +209,8 @@ fn skipped(spec: &RowSpec, why: String) -> Row {
 pub fn markdown(r: &Report) -> String {
     let m = &r.machine;
     let mut s = format!(
-        "Machine: {}, {} cores ({} threads used), {}; {}, fastest of {} renders after {} warm-up.\n\n",
-        m.cpu, m.cores, m.threads, m.os, m.resolution, m.repetitions, m.warmup
+        "Machine: {}, {} cores ({} threads used), {}; {} traversal; {}, fastest of {} renders after {} warm-up.\n\n",
+        m.cpu, m.cores, m.threads, m.os, m.simd, m.resolution, m.repetitions, m.warmup
     );
     s += "| scene | triangles | BVH build (ms) | BVH levels | render (ms) | Mrays/s | course report (ms, its hardware) |\n";
     s += "|---|---:|---:|---:|---:|---:|---:|\n";

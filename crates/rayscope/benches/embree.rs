@@ -71,6 +71,7 @@ fn procedural(n: u32, m: u32) -> Soup {
     Soup { name: format!("procedural torus ({}k)", 2 * n * m / 1000), positions, triangles }
 }
 
+/// Our scene over the soup's triangles (its BVH is built on the way).
 fn ours(soup: &Soup) -> Scene {
     let mesh = Mesh {
         name: soup.name.clone(),
@@ -79,7 +80,7 @@ fn ours(soup: &Soup) -> Scene {
         materials: vec![0; soup.triangles.len()],
         ..Mesh::default()
     };
-    let scene = Scene::new(
+    Scene::new(
         soup.name.clone(),
         CameraDesc::default(),
         vec![mesh],
@@ -88,8 +89,7 @@ fn ours(soup: &Soup) -> Scene {
         vec![],
         vec![],
         None,
-    );
-    scene
+    )
 }
 
 struct Embree {
@@ -285,6 +285,7 @@ fn main() {
     if wanted.contains(&"torus") {
         soups.push(procedural(1000, 500));
     }
+    println!("Our traversal: {:?} (chosen at run time).\n", rayscope::bvh::wide::SimdLevel::detect());
     println!(
         "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | incoherent | any-hit (shadow) | hits agree |"
     );

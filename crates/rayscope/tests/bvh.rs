@@ -281,11 +281,15 @@ fn course_scenes_match_brute_force() {
         let mut rays: Vec<Ray> =
             (0..n / 2).map(|i| cam.pixel_ray((i * 37) as u32 % 100, (i * 53) as u32 % 100, 100, 100)).collect();
         rays.extend(random_rays(&mut rng, n / 2, 1.0));
+        // The rendering tree traversed by the baseline code as well as by the detected one.
+        let (g, portable) = (&scene.geometry, scene.geometry.wide.clone().portable());
         for ray in &rays {
             let got = scene.intersect(ray);
             let want = brute_closest(&shapes, ray);
             assert_eq!(got.map(|h| h.t), want.map(|w| w.1.t), "{name}: ray {ray:?}");
             assert_eq!(scene.occluded(ray), want.is_some(), "{name}");
+            assert_eq!(portable.intersect(ray, g), g.wide.intersect(ray, g), "{name}: SIMD levels, {ray:?}");
+            assert_eq!(portable.occluded(ray, g), g.wide.occluded(ray, g), "{name}: SIMD levels, {ray:?}");
         }
     }
 }
