@@ -94,27 +94,9 @@ impl Primitives for Geometry {
 impl Geometry {
     /// Build over every triangle of `meshes` and every sphere, in global primitive order.
     pub fn build(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef]) -> Geometry {
-        use rayon::prelude::*;
-        let mut moving = Vec::new();
-        let shapes = all_shapes(meshes, spheres, prims, &mut moving);
-        let mut geometry =
-            Geometry { bvh: Bvh::default(), wide: Bvh8::default(), shapes: Vec::new(), moving, slots: Vec::new() };
-        // Large scenes take these passes on all threads: with the BVH build itself parallel,
-        // serial passes here were a third of the build's time on two cores.
-        let g = &geometry;
-        let bounds: Vec<Aabb> = if shapes.len() > PARALLEL_PASS {
-            shapes.par_iter().map(|s| g.shape_bounds(s)).collect()
-        } else {
-            shapes.iter().map(|s| g.shape_bounds(s)).collect()
-        };
-        geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
-        let order = &geometry.bvh.prim_indices;
-        geometry.shapes = if order.len() > PARALLEL_PASS {
-            order.par_iter().map(|&i| shapes[i as usize]).collect()
-        } else {
-            order.iter().map(|&i| shapes[i as usize]).collect()
-        };
-        let slot = |&i: &u32| {
+        let moves = |m: Option<Motion>| m.is_some_and(|m| m.end != m.start);
+        let mut geometry = Geometry::default();
+        let slot_info = |i: u32| {
             let prim = prims[i as usize];
             let material = match prim {
                 PrimRef::Triangle { mesh, face } => meshes[mesh as usize].materials[face as usize],
@@ -122,11 +104,30 @@ impl Geometry {
             };
             SlotInfo { prim, material }
         };
-        geometry.slots = if order.len() > PARALLEL_PASS {
-            order.par_iter().map(slot).collect()
+        if meshes.iter().any(|m| moves(m.motion)) || spheres.iter().any(|s| moves(s.motion)) {
+            // Moving shapes are numbered in order: make every shape first, then reorder.
+            let shapes = all_shapes(meshes, spheres, prims, &mut geometry.moving);
+            let g = &geometry;
+            let bounds = map(&shapes, |s| g.shape_bounds(s));
+            geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
+            geometry.shapes = map(&geometry.bvh.prim_indices, |&i| shapes[i as usize]);
+            geometry.slots = map(&geometry.bvh.prim_indices, |&i| slot_info(i));
         } else {
-            order.iter().map(slot).collect()
-        };
+            // Nothing moves: the bounds come straight from the meshes, and each shape is made
+            // once, in slot order, beside its slot's information (a shapes array in global
+            // order and a reordering pass were a third of the build on two cores).
+            let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
+            let bounds = map(prims, |p| shape(p).bounds());
+            geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
+            let order = &geometry.bvh.prim_indices;
+            let both = |&i: &u32| (shape(&prims[i as usize]), slot_info(i));
+            (geometry.shapes, geometry.slots) = if order.len() > PARALLEL_PASS {
+                use rayon::prelude::*;
+                order.par_iter().map(both).unzip()
+            } else {
+                order.iter().map(both).unzip()
+            };
+        }
         geometry.wide = Bvh8::from_binary(&geometry.bvh, &geometry);
         geometry
     }
@@ -205,16 +206,15 @@ impl Geometry {
 /// Scenes with more primitives than this make their shapes and bounds on all threads.
 const PARALLEL_PASS: usize = 1 << 14;
 
-/// Every primitive as a shape, in global primitive order; moving ones go to `moving`.
-pub fn all_shapes(
-    meshes: &[Mesh],
-    spheres: &[SceneSphere],
-    prims: &[PrimRef],
-    moving: &mut Vec<MovingShape>,
-) -> Vec<Shape> {
+/// `f` over `items`, on all threads for large scenes.
+fn map<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
     use rayon::prelude::*;
-    let moves = |m: Option<Motion>| m.is_some_and(|m| m.end != m.start);
-    let still = |p: &PrimRef| match *p {
+    if items.len() > PARALLEL_PASS { items.par_iter().map(f).collect() } else { items.iter().map(f).collect() }
+}
+
+/// Primitive `p` as a shape at shutter open (its motion, if any, aside).
+fn still_shape(meshes: &[Mesh], spheres: &[SceneSphere], p: &PrimRef) -> Shape {
+    match *p {
         PrimRef::Triangle { mesh, face } => {
             let m = &meshes[mesh as usize];
             let o = m.motion.map_or(Vec3A::ZERO, |mo| mo.start);
@@ -226,19 +226,20 @@ pub fn all_shapes(
             let o = s.motion.map_or(Vec3A::ZERO, |mo| mo.start);
             Shape::Sphere(Sphere { center: s.center + o, radius: s.radius })
         }
-    };
-    if !meshes.iter().any(|m| moves(m.motion)) && !spheres.iter().any(|s| moves(s.motion)) {
-        // Nothing moves, so nothing needs numbering in order: any thread can make any shape.
-        return if prims.len() > PARALLEL_PASS {
-            prims.par_iter().map(still).collect()
-        } else {
-            prims.iter().map(still).collect()
-        };
     }
+}
+
+/// Every primitive as a shape, in global primitive order; moving ones go to `moving`.
+pub fn all_shapes(
+    meshes: &[Mesh],
+    spheres: &[SceneSphere],
+    prims: &[PrimRef],
+    moving: &mut Vec<MovingShape>,
+) -> Vec<Shape> {
     prims
         .iter()
         .map(|p| {
-            let shape = still(p);
+            let shape = still_shape(meshes, spheres, p);
             let motion = match *p {
                 PrimRef::Triangle { mesh, .. } => meshes[mesh as usize].motion,
                 PrimRef::Sphere(s) => spheres[s as usize].motion,
