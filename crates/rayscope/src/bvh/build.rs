@@ -123,6 +123,10 @@ struct Split {
     axis: usize,
     /// Primitives whose bin is below this go left.
     bin: usize,
+    /// Where the binning started on `axis` and its bins per unit: the partition bins with the
+    /// same numbers, so every primitive lands on its bin's side.
+    lo: f32,
+    scale: f32,
     cost: f32,
 }
 
@@ -143,10 +147,9 @@ fn build_node(
         return;
     }
     let split = find_split(prims, &b.bounds, &b.centroids, params);
-    let bins = params.bins.min(n.next_power_of_two().max(4));
-    let leaf_cost = params.intersection_cost * blocks(n, params) as f32;
+    let leaf_cost = params.intersection_cost * blocks(n as u32, params.block_size) as f32;
     let (mid, lb, rb) = match split {
-        Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &b.centroids, &s, bins),
+        Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &s),
         None if n > params.max_leaf_size => {
             let mid = median_split(prims, &b.centroids);
             (mid, Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]))
@@ -181,10 +184,13 @@ fn subtree(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, params
     out
 }
 
-/// Intersection blocks a leaf of `n` primitives takes.
+/// Intersection blocks a leaf of `n` primitives takes with `block_size` per block; by a shift
+/// where the size is a power of two (always, in practice): the SAH sweep counts blocks twice
+/// per candidate plane, and a division there showed in profiles.
 #[inline(always)]
-fn blocks(n: usize, params: &BuildParams) -> usize {
-    n.div_ceil(params.block_size.max(1))
+fn blocks(n: u32, block_size: usize) -> u32 {
+    let bs = block_size.max(1) as u32;
+    if bs.is_power_of_two() { (n + bs - 1) >> bs.trailing_zeros() } else { n.div_ceil(bs) }
 }
 
 /// The bins of relative positions `rel` (`trunc(min(rel, top))` per axis, 0 for NaN): one
@@ -256,11 +262,6 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     // A zero extent gives an infinite scale; such an axis is skipped below.
     let scale = Vec3A::splat(nb as f32) / extent;
     let bins = fill_bins(prims, centroids.min, scale, nb);
-    // Blocks by a shift where the block size is a power of two (always, in practice): the
-    // sweep below counts them twice per candidate plane, and a division there showed.
-    let bs = params.block_size.max(1) as u32;
-    let shift = bs.trailing_zeros();
-    let blocks = |n: u32| if bs.is_power_of_two() { (n + bs - 1) >> shift } else { n.div_ceil(bs) };
     // Candidates are ranked by area-weighted block counts; the division by the parent's area
     // (which does not change the ranking) is done once, for the winner.
     let mut best: Option<(usize, usize, f32)> = None;
@@ -285,7 +286,8 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
             if cnt == 0 || right_count[i] == 0 {
                 continue;
             }
-            let weight = acc.half_area() * blocks(cnt) as f32 + right_area[i] * blocks(right_count[i]) as f32;
+            let bs = params.block_size;
+            let weight = acc.half_area() * blocks(cnt, bs) as f32 + right_area[i] * blocks(right_count[i], bs) as f32;
             if best.is_none_or(|b| weight < b.2) {
                 best = Some((axis, i, weight));
             }
@@ -294,21 +296,20 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     best.map(|(axis, bin, weight)| Split {
         axis,
         bin,
+        lo: centroids.min[axis],
+        scale: scale[axis],
         cost: params.traversal_cost + params.intersection_cost * weight / parent_area,
     })
 }
 
 /// Put the primitives left of split `s` first; returns their number and both sides' bounds
 /// (measured on the way, so the children need no pass of their own).
-fn partition(prims: &mut [BuildPrim], centroids: &Aabb, s: &Split, bins: usize) -> (usize, Bounds, Bounds) {
-    let bins = bins.clamp(2, MAX_BINS);
-    let lo = centroids.min[s.axis];
-    // The same arithmetic as the binning, so every primitive lands on its bin's side: for
-    // `rel >= 0` and a whole `s.bin` in 1..bins, `trunc(min(rel, bins - 1)) < s.bin` exactly
-    // when `rel < s.bin` (the split axis has extent, so `rel` is never NaN).
-    let scale = (Vec3A::splat(bins as f32) / centroids.extent())[s.axis];
+fn partition(prims: &mut [BuildPrim], s: &Split) -> (usize, Bounds, Bounds) {
+    // The binning's arithmetic: for `rel >= 0` and a whole `s.bin` in 1..bins,
+    // `trunc(min(rel, bins - 1)) < s.bin` exactly when `rel < s.bin` (the split axis has
+    // extent, so `rel` is never NaN).
     let plane = s.bin as f32;
-    let goes_left = |p: &BuildPrim| (p.centroid[s.axis] - lo) * scale < plane;
+    let goes_left = |p: &BuildPrim| (p.centroid[s.axis] - s.lo) * s.scale < plane;
     let (mut left, mut right) = (Bounds::EMPTY, Bounds::EMPTY);
     // Hoare's scheme: from both ends, swapping only pairs that are on the wrong sides.
     let (mut i, mut j) = (0, prims.len());
