@@ -1,16 +1,17 @@
 //! Shadow rays grouped per shading point: many samples of one area light all leave the same
-//! point towards the same light. One query collects the leaves that any of those segments
-//! could cross (a frustum around the cone from the point to the light's bounding sphere), and
-//! each shadow ray then tests just those leaves, with no traversal. In the open (the common
-//! case) the list is empty and every sample is visible at once.
+//! point towards the same light. One query collects what any of those segments could cross
+//! (the triangles, and other leaves, that meet a frustum around the cone from the point to the
+//! light's bounding sphere), and each shadow ray then tests just those, with no traversal. In
+//! the open (the common case) the list is empty and every sample is visible at once.
 //!
 //! The answers are those of [`WideBvh::occluded`]: the frustum contains every segment, so a
-//! primitive that blocks one lies in a leaf on the list, and each listed leaf is tested with
-//! the traversal's own box and triangle tests.
+//! primitive that blocks one is on the list, and each listed triangle or leaf is tested with
+//! the traversal's own triangle and box tests.
 
 use super::Primitives;
 use super::wide::{
-    EMPTY, LEAF_BIT, Lanes, LeafRange, NodeWidth, RayLanes, Tri4, WideBvh, is_packed, packed_blocks, ray_is_finite,
+    EMPTY, LEAF_BIT, Lanes, LeafRange, NodeWidth, RayLanes, Stack, Tri4, WideBvh, is_packed, packed_blocks,
+    ray_is_finite,
 };
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{Aabb, Triangle};
@@ -62,7 +63,7 @@ impl Occluders {
     }
 }
 
-/// A plane `n . (x - apex) <= h`: the frustum is the intersection of six of them.
+/// A plane `n . (x - apex) <= h`: the frustum is the intersection of seven of them.
 #[derive(Clone, Copy, Debug)]
 struct Plane {
     n: Vec3A,
@@ -127,7 +128,7 @@ impl Frustum {
     /// one plane.
     #[inline]
     fn may_meet_triangle(&self, t: &Triangle) -> bool {
-        let (a, b, c) = (t.v0 - self.apex, t.v0 + t.e1 - self.apex, t.v0 + t.e2 - self.apex);
+        let [a, b, c] = t.vertices().map(|v| v - self.apex);
         if !self.planes.iter().all(|p| p.n.dot(a) <= p.h || p.n.dot(b) <= p.h || p.n.dot(c) <= p.h) {
             return false;
         }
@@ -158,13 +159,12 @@ impl<const W: usize> WideBvh<W>
 where
     Lanes<W>: NodeWidth<W>,
 {
-    const WIDTH_FITS_STACK: () = assert!(W <= 8);
-
     /// The leaves that any segment from `apex` to a point of the sphere (`center`, `radius`)
     /// may cross, of those whose direction `d` has `side . d >= 0` (a shading point's
     /// geometric normal: shadow rays leave on its side; `Vec3A::ZERO` to keep them all);
     /// `None` when the apex is inside the sphere, a value is not finite, or more than
-    /// [`MAX_OCCLUDERS`] leaves qualify (then trace with [`WideBvh::occluded`]).
+    /// [`MAX_TRIANGLES`] triangles or [`MAX_LEAVES`] other leaves qualify (then trace with
+    /// [`WideBvh::occluded`]).
     pub fn occluders(&self, apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Occluders> {
         if !apex.is_finite() || !side.is_finite() || !center.is_finite() || !radius.is_finite() {
             return None;
@@ -174,12 +174,10 @@ where
         if self.nodes.is_empty() {
             return Some(out);
         }
-        let () = Self::WIDTH_FITS_STACK;
-        let mut stack = [0u32; 8 * super::MAX_DEPTH];
-        let mut len = 1;
-        while len > 0 {
-            len -= 1;
-            let node = &self.nodes[stack[len] as usize];
+        let mut stack: Stack<u32> = Stack::new();
+        stack.push(0);
+        while let Some(index) = stack.pop() {
+            let node = &self.nodes[index as usize];
             for i in 0..W {
                 let child = node.child[i];
                 if child == EMPTY {
@@ -211,10 +209,7 @@ where
                     out.ranges[out.leaves] = self.ranges[(child & !LEAF_BIT) as usize];
                     out.leaves += 1;
                 } else {
-                    // Room is certain: each node pushes at most W <= 8 and pops one, over at
-                    // most MAX_DEPTH levels.
-                    stack[len] = child;
-                    len += 1;
+                    stack.push(child);
                 }
             }
         }
@@ -232,6 +227,9 @@ where
         // Unused lanes of the last block hold degenerate triangles, which no ray hits.
         if occ.blocks[..occ.triangles.div_ceil(4)].iter().any(|block| block.intersect(&lanes, t_min, t_max).0 != 0) {
             return true;
+        }
+        if occ.leaves == 0 {
+            return false;
         }
         let inv = safe_inv_dir(ray.dir);
         for (b, r) in occ.boxes[..occ.leaves].iter().zip(&occ.ranges[..occ.leaves]) {

@@ -16,9 +16,10 @@ use crate::geometry::{PrimHit, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
-/// The instruction set a traversal is compiled for. Both give bit-identical hits: the AVX2
-/// variant is the same code compiled with more registers, three-operand instructions and
-/// BMI, chosen at run time so the binary still runs on any x86-64.
+/// The instruction set a traversal runs on, chosen at run time so the binary still runs on any
+/// x86-64. Both give bit-identical hits: the AVX2 variant is the same traversal compiled for
+/// AVX2, FMA and BMI, with the 8-wide node and two-block triangle tests written in `std::arch`
+/// doing the portable tests' operations lane for lane.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SimdLevel {
     /// The target's baseline (SSE2 on x86-64, NEON on AArch64, scalar elsewhere).
@@ -101,7 +102,7 @@ impl<const W: usize> WideNode<W> {
 
     /// The box of child `i`.
     pub fn child_bounds(&self, i: usize) -> Aabb {
-        let row = |r: usize| crate::math::Vec3A::new(self.bounds[r][i], self.bounds[r + 1][i], self.bounds[r + 2][i]);
+        let row = |r: usize| Vec3A::new(self.bounds[r][i], self.bounds[r + 1][i], self.bounds[r + 2][i]);
         Aabb { min: row(0), max: row(3) }
     }
 }
@@ -153,7 +154,7 @@ impl Tri4 {
 
     /// The triangle in `lane`.
     pub fn triangle(&self, lane: usize) -> Triangle {
-        let v = |a: &[[f32; 4]; 3]| crate::math::Vec3A::new(a[0][lane], a[1][lane], a[2][lane]);
+        let v = |a: &[[f32; 4]; 3]| Vec3A::new(a[0][lane], a[1][lane], a[2][lane]);
         Triangle { v0: v(&self.v0), e1: v(&self.e1), e2: v(&self.e2) }
     }
 
@@ -246,19 +247,19 @@ const STACK: usize = 7 * super::MAX_DEPTH + 8;
 
 /// A fixed-capacity stack on the machine stack. Its storage is left uninitialised: zeroing
 /// a few KiB per ray showed up in profiles as a few percent of render time.
-struct Stack<T: Copy> {
+pub(super) struct Stack<T: Copy> {
     items: [std::mem::MaybeUninit<T>; STACK],
     len: usize,
 }
 
 impl<T: Copy> Stack<T> {
     #[inline(always)]
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Stack { items: [const { std::mem::MaybeUninit::uninit() }; STACK], len: 0 }
     }
 
     #[inline(always)]
-    fn push(&mut self, v: T) {
+    pub(super) fn push(&mut self, v: T) {
         // Cannot overflow: the tree is at most MAX_DEPTH levels deep and each level pushes
         // at most W - 1 entries; the bounds check stays as a guard.
         self.items[self.len].write(v);
@@ -266,7 +267,7 @@ impl<T: Copy> Stack<T> {
     }
 
     #[inline(always)]
-    fn pop(&mut self) -> Option<T> {
+    pub(super) fn pop(&mut self) -> Option<T> {
         if self.len == 0 {
             return None;
         }
@@ -325,8 +326,8 @@ pub trait NodeTest<const W: usize>: Sized {
     /// As for [`NodeTest::new`].
     unsafe fn test(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
-    /// Two packed blocks at once, as [`Tri4::intersect`] gives them: lanes 0..4 are `a`'s,
-    /// 4..8 are `b`'s. Both are tested against `[t_min, t_max]`.
+    /// Two packed blocks at once, as the packed 4-wide test (`Tri4::intersect`) gives them:
+    /// lanes 0..4 are `a`'s, 4..8 are `b`'s. Both are tested against `[t_min, t_max]`.
     ///
     /// # Safety
     /// As for [`NodeTest::new`].
@@ -466,7 +467,7 @@ impl NodeTest<8> for Avx2Node8 {
     }
 
     /// Möller–Trumbore on eight triangles in 256-bit registers: the operations of
-    /// [`Tri4::intersect`], lane for lane, so the hits are the same bits.
+    /// `Tri4::intersect`, lane for lane, so the hits are the same bits.
     #[inline(always)]
     unsafe fn intersect_pair(&self, _: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
         use std::arch::x86_64::*;
