@@ -104,41 +104,39 @@ impl Embree {
     /// Build once on `threads` threads; returns the scene and the time of `rtcCommitScene`.
     fn build(soup: &Soup, threads: usize) -> (Embree, Duration) {
         let cfg = CString::new(format!("threads={threads}")).unwrap();
-        {
-            unsafe {
-                let device = sys::rtcNewDevice(cfg.as_ptr());
-                let scene = sys::rtcNewScene(device);
-                sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality::MEDIUM);
-                let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
-                let v = sys::rtcSetNewGeometryBuffer(
-                    geom,
-                    sys::RTCBufferType::VERTEX,
-                    0,
-                    sys::RTCFormat::FLOAT3,
-                    16,
-                    soup.positions.len(),
-                ) as *mut [f32; 4];
-                for (i, p) in soup.positions.iter().enumerate() {
-                    *v.add(i) = [p.x, p.y, p.z, 0.0];
-                }
-                let ix = sys::rtcSetNewGeometryBuffer(
-                    geom,
-                    sys::RTCBufferType::INDEX,
-                    0,
-                    sys::RTCFormat::UINT3,
-                    12,
-                    soup.triangles.len(),
-                ) as *mut [u32; 3];
-                for (i, t) in soup.triangles.iter().enumerate() {
-                    *ix.add(i) = *t;
-                }
-                sys::rtcCommitGeometry(geom);
-                sys::rtcAttachGeometry(scene, geom);
-                sys::rtcReleaseGeometry(geom);
-                let start = Instant::now();
-                sys::rtcCommitScene(scene);
-                (Embree { device, scene }, start.elapsed())
+        unsafe {
+            let device = sys::rtcNewDevice(cfg.as_ptr());
+            let scene = sys::rtcNewScene(device);
+            sys::rtcSetSceneBuildQuality(scene, sys::RTCBuildQuality::MEDIUM);
+            let geom = sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE);
+            let v = sys::rtcSetNewGeometryBuffer(
+                geom,
+                sys::RTCBufferType::VERTEX,
+                0,
+                sys::RTCFormat::FLOAT3,
+                16,
+                soup.positions.len(),
+            ) as *mut [f32; 4];
+            for (i, p) in soup.positions.iter().enumerate() {
+                *v.add(i) = [p.x, p.y, p.z, 0.0];
             }
+            let ix = sys::rtcSetNewGeometryBuffer(
+                geom,
+                sys::RTCBufferType::INDEX,
+                0,
+                sys::RTCFormat::UINT3,
+                12,
+                soup.triangles.len(),
+            ) as *mut [u32; 3];
+            for (i, t) in soup.triangles.iter().enumerate() {
+                *ix.add(i) = *t;
+            }
+            sys::rtcCommitGeometry(geom);
+            sys::rtcAttachGeometry(scene, geom);
+            sys::rtcReleaseGeometry(geom);
+            let start = Instant::now();
+            sys::rtcCommitScene(scene);
+            (Embree { device, scene }, start.elapsed())
         }
     }
 

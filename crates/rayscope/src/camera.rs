@@ -105,25 +105,18 @@ impl Camera {
     }
 
     /// The primary ray through normalised screen point `ndc` (`[-1, 1]^2`, y up) for an image
-    /// of aspect ratio `aspect` (width / height).
-    #[inline]
+    /// of aspect ratio `aspect` (width / height): the course's formula as written. The
+    /// renderer makes its rays with a [`RayGenerator`], which agrees up to rounding.
     pub fn ray(&self, ndc: Vec2, aspect: f32) -> Ray {
-        self.ray_with(ndc, aspect, self.tan_half_fov())
+        let h = self.tan_half_fov();
+        let local = Vec3::new(-ndc.x * h * aspect, ndc.y * h, 1.0).normalize();
+        Ray::new(self.position, Vec3A::from(self.rotation * local))
     }
 
-    /// `tan(fov_y / 2)`, which [`Camera::ray_with`] takes precomputed.
+    /// `tan(fov_y / 2)`.
     #[inline]
     pub fn tan_half_fov(&self) -> f32 {
         (self.fov_y.to_radians() * 0.5).tan()
-    }
-
-    /// [`Camera::ray`] with `tan(fov_y / 2)` given: the renderer computes it once per camera,
-    /// not once per ray.
-    #[inline]
-    pub fn ray_with(&self, ndc: Vec2, aspect: f32, tan_half_fov: f32) -> Ray {
-        let h = tan_half_fov;
-        let local = Vec3::new(-ndc.x * h * aspect, ndc.y * h, 1.0).normalize();
-        Ray::new(self.position, Vec3A::from(self.rotation * local))
     }
 
     /// The normalised screen point of the centre of pixel `(px, py)` (row 0 at the top) in a

@@ -98,11 +98,7 @@ impl Geometry {
         let mut geometry = Geometry::default();
         let slot_info = |i: u32| {
             let prim = prims[i as usize];
-            let material = match prim {
-                PrimRef::Triangle { mesh, face } => meshes[mesh as usize].materials[face as usize],
-                PrimRef::Sphere(s) => spheres[s as usize].material,
-            };
-            SlotInfo { prim, material }
+            SlotInfo { prim, material: prim.material(meshes, spheres) }
         };
         if meshes.iter().any(|m| moves(m.motion)) || spheres.iter().any(|s| moves(s.motion)) {
             // Moving shapes are numbered in order: make every shape first, then reorder.
@@ -178,8 +174,8 @@ impl Geometry {
         self.wide.occluded(ray, self)
     }
 
-    /// The leaves that shadow rays from `apex` (on the side of `side`) into the sphere
-    /// (`center`, `radius`) may cross, for [`Geometry::occluded_among`]; see
+    /// What shadow rays from `apex` (on the side of `side`) into the sphere (`center`,
+    /// `radius`) may cross, for [`Geometry::occluded_among`]; see
     /// [`crate::bvh::shadow`].
     pub fn occluders(&self, apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Occluders> {
         self.wide.occluders(apex, side, center, radius)

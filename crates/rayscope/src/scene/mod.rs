@@ -84,6 +84,16 @@ pub enum PrimRef {
     Sphere(u32),
 }
 
+impl PrimRef {
+    /// The primitive's material, from the meshes and spheres its indices point into.
+    pub fn material(self, meshes: &[Mesh], spheres: &[SceneSphere]) -> u32 {
+        match self {
+            PrimRef::Triangle { mesh, face } => meshes[mesh as usize].materials[face as usize],
+            PrimRef::Sphere(s) => spheres[s as usize].material,
+        }
+    }
+}
+
 /// The closest hit of a ray with the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -256,8 +266,8 @@ impl Scene {
         self.geometry.occluded(ray)
     }
 
-    /// The leaves that shadow rays from `apex` to points of `light` may cross, so that many
-    /// samples of the light share one BVH query ([`crate::bvh::shadow`]). The rays must go to
+    /// What shadow rays from `apex` to points of `light` may cross, so that many samples of
+    /// the light share one BVH query ([`crate::bvh::shadow`]). The rays must go to
     /// the side of `side` (a surface's geometric normal), as shadow rays that are cast do.
     /// `None` where each ray must be traced alone: scenes with transparent surfaces (whose
     /// shadows need every surface crossed), an apex inside the light's bounds, or a cluttered
@@ -279,10 +289,7 @@ impl Scene {
 
     /// The material of primitive `prim`.
     pub fn material_of(&self, prim: u32) -> u32 {
-        match self.prims[prim as usize] {
-            PrimRef::Triangle { mesh, face } => self.meshes[mesh as usize].materials[face as usize],
-            PrimRef::Sphere(s) => self.spheres[s as usize].material,
-        }
+        self.prims[prim as usize].material(&self.meshes, &self.spheres)
     }
 
     /// The world-space corners of triangle `prim` when the shutter opens, or `None` for a
