@@ -9,7 +9,7 @@ use crate::ray::Ray;
 use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent};
 use crate::render::RenderSettings;
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
-use crate::scene::{Scene, SurfaceInteraction};
+use crate::scene::{Hit, Scene, SurfaceInteraction};
 
 /// Light samples per shading point from which their shadow rays share one BVH query
 /// ([`Scene::shadow_group`]); below it, the query costs more than it saves.
@@ -73,9 +73,22 @@ impl<'a> Integrator<'a> {
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`.
     pub fn li<R: RayRecorder>(&self, ray: &Ray, kind: RayKind, depth: u32, ctx: &mut PathContext<R>) -> Color {
+        self.li_hit(ray, self.scene.intersect(ray), kind, depth, ctx)
+    }
+
+    /// [`Integrator::li`] for a ray whose closest hit is already known (`hit`, which must be
+    /// what [`Scene::intersect`] gives): camera rays traced as a packet continue here.
+    pub fn li_hit<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        hit: Option<Hit>,
+        kind: RayKind,
+        depth: u32,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
         ctx.recorder.begin_ray(kind, depth, ray);
         ctx.counts.primary_and_secondary += 1;
-        let color = match self.scene.intersect(ray) {
+        let color = match hit {
             None => {
                 ctx.recorder.hit(None);
                 self.settings.background

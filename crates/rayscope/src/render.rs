@@ -8,12 +8,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::TraversalStats;
+use crate::bvh::packet::PACKET;
 use crate::camera::{Camera, CameraMotion, RayGenerator};
 use crate::film::{Film, FloatImage};
 use crate::filter::PixelFilter;
 use crate::integrator::{Integrator, PathContext, RayCounts};
 use crate::material::TextureFilter;
 use crate::math::{Color, Vec2};
+use crate::ray::Ray;
 use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
@@ -243,17 +245,42 @@ pub fn render_pass(
                 return (RayCounts::default(), false);
             }
             let mut rays = RayCounts::default();
-            for (i, (sum, count)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
-                let p = b * band + i;
-                let (x, y) = ((p % w) as u32, (p / w) as u32);
-                let first = *count;
-                let last = first.saturating_add(pass.samples).min(pass.limit.max(first));
-                for k in first..last {
-                    let (c, r) = sample_pixel(&integrator, camera, still.as_ref(), x, y, k, pass, &mut NoRecorder);
-                    *sum += c;
-                    rays.add(r);
+            let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
+            for (row, (sums, counts)) in rows.enumerate() {
+                let y = (b * BAND_ROWS + row) as u32;
+                let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
+                for (run, (sums, counts)) in runs.enumerate() {
+                    let x0 = (run * PACKET) as u32;
+                    match still.as_ref() {
+                        // Pixels side by side that are at the same sample: their camera rays
+                        // share the pinhole and go through the BVH together.
+                        Some(generator) if counts.iter().all(|c| *c == counts[0]) => {
+                            rays.add(sample_run(&integrator, camera, generator, x0, y, sums, counts, pass));
+                        }
+                        _ => {
+                            for (i, (sum, count)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
+                                let x = x0 + i as u32;
+                                let first = *count;
+                                let last = sample_range(first, pass);
+                                for k in first..last {
+                                    let (c, r) = sample_pixel(
+                                        &integrator,
+                                        camera,
+                                        still.as_ref(),
+                                        x,
+                                        y,
+                                        k,
+                                        pass,
+                                        &mut NoRecorder,
+                                    );
+                                    *sum += c;
+                                    rays.add(r);
+                                }
+                                *count = last;
+                            }
+                        }
+                    }
                 }
-                *count = last;
             }
             let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
             progress(RenderProgress { done: d, total });
@@ -273,7 +300,34 @@ pub fn render_pass(
 /// tasks' worth of rows (50 for 800) to balance two or more threads.
 const BAND_ROWS: usize = 16;
 
-/// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger, uses.
+/// The samples a pixel that has `first` gets in `pass`: `first..` the returned end.
+fn sample_range(first: u32, pass: SamplePass) -> u32 {
+    first.saturating_add(pass.samples).min(pass.limit.max(first))
+}
+
+/// The camera ray of pixel `(x, y)` for the sample whose random numbers are `sampler`
+/// (`still`: a still camera's ray generator, made once per pass; a moving camera's is made
+/// per sample).
+fn camera_ray(
+    settings: &RenderSettings,
+    camera: &CameraMotion,
+    still: Option<&RayGenerator>,
+    x: u32,
+    y: u32,
+    sampler: &PixelSampler,
+) -> Ray {
+    let jitter = Vec2::splat(0.5) + settings.filter.warp(sampler.pixel_offset);
+    let time = sampler.time;
+    let mut ray = match still {
+        Some(rays) => rays.ray(x, y, jitter),
+        None => RayGenerator::new(&camera.at(time), settings.width, settings.height).ray(x, y, jitter),
+    };
+    ray.time = time;
+    ray
+}
+
+/// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger, uses
+/// (or [`sample_run`], which differs only in finding the camera rays' hits as a packet).
 #[allow(clippy::too_many_arguments)]
 fn sample_pixel<R: RayRecorder>(
     integrator: &Integrator,
@@ -287,17 +341,48 @@ fn sample_pixel<R: RayRecorder>(
 ) -> (Color, RayCounts) {
     let s = integrator.settings;
     let sampler = PixelSampler::new(pass.seed, y * s.width + x, k, pass.planned);
-    let jitter = Vec2::splat(0.5) + s.filter.warp(sampler.pixel_offset);
-    let time = sampler.time;
-    // A still camera's ray generator is made once per pass, a moving one's per sample.
-    let mut ray = match still {
-        Some(rays) => rays.ray(x, y, jitter),
-        None => RayGenerator::new(&camera.at(time), s.width, s.height).ray(x, y, jitter),
-    };
-    ray.time = time;
+    let ray = camera_ray(s, camera, still, x, y, &sampler);
     let mut ctx = PathContext::new(sampler, rec);
     let c = integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
     (c, ctx.counts)
+}
+
+/// Add `pass`'s samples to a run of up to [`PACKET`] pixels from `(x0, y)` rightwards, all
+/// at the same sample count (`counts`), seen by a still camera (`generator`): each sample's camera
+/// rays are traced as one packet, then each pixel's sample goes on as in [`sample_pixel`].
+/// The film gets the same values, bit for bit, as pixel by pixel.
+#[allow(clippy::too_many_arguments)]
+fn sample_run(
+    integrator: &Integrator,
+    camera: &CameraMotion,
+    generator: &RayGenerator,
+    x0: u32,
+    y: u32,
+    sums: &mut [Color],
+    counts: &mut [u32],
+    pass: SamplePass,
+) -> RayCounts {
+    let n = sums.len();
+    let mut total = RayCounts::default();
+    let first = counts[0];
+    let last = sample_range(first, pass);
+    let s = integrator.settings;
+    let x = |i: usize| x0 + i.min(n - 1) as u32;
+    for k in first..last {
+        let samplers: [PixelSampler; PACKET] =
+            std::array::from_fn(|i| PixelSampler::new(pass.seed, y * s.width + x(i), k, pass.planned));
+        let rays: [Ray; PACKET] =
+            std::array::from_fn(|i| camera_ray(s, camera, Some(generator), x(i), y, &samplers[i]));
+        let hits = integrator.scene.intersect_packet(&rays[..n]);
+        let mut rec = NoRecorder;
+        for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+            let mut ctx = PathContext::new(sampler, &mut rec);
+            sums[i] += integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
+            total.add(ctx.counts);
+        }
+    }
+    counts.fill(last);
+    total
 }
 
 /// Render `scene` with `settings` (all `spp` samples per pixel) on the current rayon pool,

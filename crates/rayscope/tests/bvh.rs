@@ -382,3 +382,83 @@ fn shadow_groups_match_one_ray_at_a_time() {
     check_groups(&scene.geometry.wide, &scene.geometry, &mut rng, 0.6);
     assert!(groups > 500 && blocked > 2000 && open > 2000 && gave_up > 10, "{groups} {blocked} {open} {gave_up}");
 }
+
+/// Packets of rays from one origin: a narrow cone (like neighbouring camera rays, nearly
+/// always one direction sign per axis) or, one time in four, any directions (mixed signs,
+/// which the packet code hands to single-ray traversal). Sizes 1 to 8; some rays bounded.
+fn random_packets(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec<Ray>> {
+    (0..n)
+        .map(|_| {
+            let origin = rng.vec3(-spread, spread);
+            let axis = rng.dir();
+            let wide_open = rng.f32() < 0.25;
+            let len = 1 + (rng.f32() * 8.0) as usize % 8;
+            (0..len)
+                .map(|_| {
+                    let dir = if wide_open { rng.dir() } else { (axis + rng.vec3(-0.03, 0.03)).normalize() };
+                    let mut r = Ray::new(origin, dir);
+                    if rng.f32() < 0.2 {
+                        r.t.max = rng.range(0.1, 2.0);
+                    }
+                    r
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Each ray of a packet gets exactly the single-ray traversal's hit, on both SIMD levels.
+fn check_packets<P: Primitives>(bvh8: &Bvh8, prims: &P, packets: &[Vec<Ray>]) -> usize {
+    let portable = bvh8.clone().portable();
+    let mut hits = 0;
+    for rays in packets {
+        let got = bvh8.intersect_packet(rays, prims);
+        assert_eq!(got, portable.intersect_packet(rays, prims), "SIMD levels, {rays:?}");
+        for (i, hit) in got.iter().enumerate() {
+            let want = rays.get(i).and_then(|r| bvh8.intersect(r, prims));
+            assert_eq!(*hit, want, "ray {i} of {rays:?}");
+            hits += usize::from(hit.is_some());
+        }
+    }
+    hits
+}
+
+#[test]
+fn packets_equal_single_rays() {
+    let mut rng = Rng(21);
+    let mut hits = 0;
+    for (n, size) in [(0, 0.1), (1, 0.5), (10, 0.3), (1000, 0.1), (20_000, 0.03)] {
+        let shapes = random_soup(&mut rng, n, size);
+        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let bvh = Bvh::build(&bounds, &BuildParams::default());
+        let prims = Ordered { shapes: &shapes, bvh: &bvh };
+        let bvh8 = Bvh8::from_binary(&bvh, &prims);
+        let mut packets = random_packets(&mut rng, 1500, 1.5);
+        // Rays that cannot go as a packet: a NaN direction, and two origins.
+        let mut bad = packets[0].clone();
+        bad.push(Ray::new(Vec3A::ZERO, Vec3A::new(f32::NAN, 0.0, 1.0)));
+        packets.push(bad);
+        packets.push(vec![Ray::new(Vec3A::ZERO, Vec3A::X), Ray::new(Vec3A::Y, Vec3A::X)]);
+        hits += check_packets(&bvh8, &prims, &packets);
+    }
+    assert!(hits > 2000, "the rays must actually hit things ({hits})");
+}
+
+#[test]
+fn camera_packets_equal_single_rays_on_course_scenes() {
+    let assets = assets("camera_packets_equal_single_rays_on_course_scenes");
+    let mut names = vec!["cornell-box", "cube", "single-triangle", "spheres"];
+    if assets.is_some() {
+        names.extend(["monkey", "teapot", "dragon"]);
+    }
+    for name in names {
+        let scene = builtin_scene(name, assets.as_ref());
+        let cam = scene.camera();
+        let (w, h) = (200u32, 150u32);
+        let rays: Vec<Ray> =
+            (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| cam.pixel_ray(x, y, w, h)).collect();
+        let packets: Vec<Vec<Ray>> = rays.chunks(8).map(<[Ray]>::to_vec).collect();
+        let hits = check_packets(&scene.geometry.wide, &scene.geometry, &packets);
+        assert!(hits > 100, "{name}: {hits} hits");
+    }
+}

@@ -6,8 +6,10 @@ mod common;
 use std::path::Path;
 
 use common::{assets, builtin_scene};
+use rayscope::math::Color;
 use rayscope::math::Vec3A;
-use rayscope::render::{RenderSettings, render};
+use rayscope::record::NoRecorder;
+use rayscope::render::{RenderSettings, render, trace_pixel};
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
 
 fn render_with_threads(scene: &Scene, s: &RenderSettings, threads: usize) -> Vec<[f32; 3]> {
@@ -30,6 +32,33 @@ fn every_builtin_renders_the_same_on_1_and_2_threads() {
         let lit = one.iter().filter(|p| p.iter().any(|v| *v > 0.0)).count();
         assert!(lit > 20, "{}: only {lit} non-black pixels", b.name);
         assert!(one.iter().flatten().all(|v| v.is_finite()), "{}", b.name);
+    }
+}
+
+/// Renders trace camera rays of neighbouring pixels as packets; the debugger traces one pixel
+/// at a time. Both must give every pixel the same value, bit for bit.
+#[test]
+fn renders_equal_the_debuggers_pixel_by_pixel_replay() {
+    let assets = assets("renders_equal_the_debuggers_pixel_by_pixel_replay");
+    // 37 columns: runs of 8 pixels and a shorter one at the end of each row.
+    let s = RenderSettings { width: 37, height: 23, spp: 2, ..RenderSettings::default() };
+    for b in builtin::BUILTINS {
+        if b.needs_assets && assets.is_none() {
+            continue;
+        }
+        let scene = builtin_scene(b.name, assets.as_ref());
+        let out = render(&scene, &s, &|_| {});
+        let camera = scene.camera_motion();
+        for y in 0..s.height {
+            for x in 0..s.width {
+                let mut sum = Color::ZERO;
+                for k in 0..s.spp {
+                    sum += trace_pixel(&scene, &s, &camera, x, y, k, &mut NoRecorder);
+                }
+                let (sums, _) = out.film.raw();
+                assert_eq!(sums[(y * s.width + x) as usize], sum, "{} pixel ({x}, {y})", b.name);
+            }
+        }
     }
 }
 

@@ -1,5 +1,7 @@
 //! A flat binary BVH: binned-SAH build ([`build`]), closest-hit and any-hit traversal
-//! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]).
+//! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]); and the wide
+//! trees that rendering traverses ([`wide`]), with packets of camera rays ([`packet`]) and
+//! grouped shadow rays ([`shadow`]).
 //!
 //! The BVH knows only boxes. Primitives are reached through the [`Primitives`] trait by their
 //! position in [`Bvh::prim_indices`] order, so the owner can store them in that order and a
@@ -7,6 +9,7 @@
 
 pub mod build;
 pub mod node;
+pub mod packet;
 pub mod shadow;
 pub mod stats;
 pub mod traverse;

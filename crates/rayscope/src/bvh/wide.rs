@@ -301,12 +301,20 @@ impl RayLanes {
     }
 }
 
+/// One ray made ready for leaf tests: the ray, its node test (which also runs the two-block
+/// triangle test) and its four-lane splat.
+pub(super) struct OneRay<'a, T> {
+    pub(super) ray: &'a Ray,
+    pub(super) boxes: &'a T,
+    pub(super) lanes: &'a RayLanes,
+}
+
 /// For each axis, the row of [`WideNode::bounds`] the ray enters a box by and the one it
 /// leaves by: the lower plane when the (safe) inverse direction is positive. Since
 /// `(lo - o) * inv <= (hi - o) * inv` for positive `inv` in rounded arithmetic too, this gives
 /// exactly the scalar test's `min`/`max` of the two plane distances with half the work.
 #[inline(always)]
-fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
+pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
     let (nx, ny, nz) = (usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0));
     ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz])
 }
@@ -349,22 +357,30 @@ struct Hits<'a> {
 }
 
 impl Hits<'_> {
-    /// Keep each hit lane, in order, that is at or before the closest so far (`t_max`), as
-    /// `best`, with the primitive slot `slot(lane)`.
+    /// Keep each hit lane that is closer than the closest so far (`t_max`, `best`), with the
+    /// primitive slot `slot(lane)` (see [`closer`]).
     #[inline(always)]
     fn take(self, slot: impl Fn(usize) -> u32, t_max: &mut f32, best: &mut Option<BvhHit>) {
         let mut mask = self.mask;
         while mask != 0 {
             let lane = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            if self.t[lane] <= *t_max {
-                *t_max = self.t[lane];
-                *best = Some(BvhHit {
-                    slot: slot(lane),
-                    hit: PrimHit { t: self.t[lane], u: self.u[lane], v: self.v[lane] },
-                });
-            }
+            let hit = BvhHit { slot: slot(lane), hit: PrimHit { t: self.t[lane], u: self.u[lane], v: self.v[lane] } };
+            closer(hit, t_max, best);
         }
+    }
+}
+
+/// Keep `hit` as the closest so far if it is nearer than `best` (whose distance is `t_max`),
+/// or as near and in a lower slot. Ties go to the lower slot so that the closest hit does not
+/// depend on the order leaves are visited in: single rays and packets, which visit them in
+/// different orders, report the same primitive where a ray meets a shared edge.
+#[inline(always)]
+fn closer(hit: BvhHit, t_max: &mut f32, best: &mut Option<BvhHit>) {
+    let t = hit.hit.t;
+    if t < *t_max || (t == *t_max && best.is_none_or(|b| hit.slot < b.slot)) {
+        *t_max = t;
+        *best = Some(hit);
     }
 }
 
@@ -567,7 +583,7 @@ where
     /// Ask for a child's memory as soon as its box is hit, so that the loads overlap the
     /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic).
     #[inline(always)]
-    fn prefetch(&self, child: u32) {
+    pub(super) fn prefetch(&self, child: u32) {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
@@ -788,36 +804,10 @@ where
         let mut stack: Stack<(u32, f32)> = Stack::new();
         let mut current = 0u32;
         loop {
-            if is_packed(current) {
-                // Blocks two at a time (one 8-lane test where the CPU has AVX2), then the last
-                // one alone. Lanes are taken in order, each at <= the best so far: the same
-                // choice among equal distances as the scalar loop makes, and the same as
-                // testing block by block (a lane beyond a closer hit in an earlier block is
-                // dropped here rather than by the test).
-                let blocks = &self.blocks[packed_blocks(current)];
-                let mut pairs = blocks.chunks_exact(2);
-                for pair in &mut pairs {
-                    obs.prim_tested();
-                    obs.prim_tested();
-                    // SAFETY: as for `T::new`.
-                    let (mask, t, u, v) = unsafe { boxes.intersect_pair(&lanes, &pair[0], &pair[1], t_min, t_max) };
-                    let hits = Hits { mask, t: &t, u: &u, v: &v };
-                    hits.take(|lane| pair[lane / 4].slot[lane % 4], &mut t_max, &mut best);
-                }
-                for block in pairs.remainder() {
-                    obs.prim_tested();
-                    let (mask, t, u, v) = block.intersect(&lanes, t_min, t_max);
-                    Hits { mask, t: &t, u: &u, v: &v }.take(|lane| block.slot[lane], &mut t_max, &mut best);
-                }
-            } else if current & LEAF_BIT != 0 {
-                let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
-                for slot in start..start + count {
-                    obs.prim_tested();
-                    if let Some(hit) = prims.intersect(slot, ray, t_min, t_max) {
-                        t_max = hit.t;
-                        best = Some(BvhHit { slot, hit });
-                    }
-                }
+            if current & LEAF_BIT != 0 {
+                let one = OneRay { ray, boxes: &boxes, lanes: &lanes };
+                // SAFETY: as for `T::new`.
+                unsafe { self.leaf_closest(current, &one, prims, obs, &mut t_max, &mut best) };
             } else {
                 let node = &self.nodes[current as usize];
                 obs.entered(current);
@@ -857,6 +847,52 @@ where
                 if entry <= t_max {
                     current = c;
                     break;
+                }
+            }
+        }
+    }
+
+    /// Intersect leaf reference `leaf` with one ray, keeping the closest hit in `t_max` and
+    /// `best` (the single-ray traversal and each ray of a packet share this).
+    ///
+    /// # Safety
+    /// As for [`NodeTest::new`].
+    #[inline(always)]
+    pub(super) unsafe fn leaf_closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        leaf: u32,
+        one: &OneRay<'_, T>,
+        prims: &P,
+        obs: &mut O,
+        t_max: &mut f32,
+        best: &mut Option<BvhHit>,
+    ) {
+        let t_min = one.ray.t.min;
+        if is_packed(leaf) {
+            // Blocks two at a time (one 8-lane test where the CPU has AVX2), then the last one
+            // alone. A lane beyond a closer hit in an earlier block of the pair is dropped by
+            // `closer` rather than by the test: the same outcome as testing block by block.
+            let blocks = &self.blocks[packed_blocks(leaf)];
+            let mut pairs = blocks.chunks_exact(2);
+            for pair in &mut pairs {
+                obs.prim_tested();
+                obs.prim_tested();
+                // SAFETY: the caller vouches for T's CPU features.
+                let (mask, t, u, v) = unsafe { one.boxes.intersect_pair(one.lanes, &pair[0], &pair[1], t_min, *t_max) };
+                let hits = Hits { mask, t: &t, u: &u, v: &v };
+                hits.take(|lane| pair[lane / 4].slot[lane % 4], t_max, best);
+            }
+            for block in pairs.remainder() {
+                obs.prim_tested();
+                let (mask, t, u, v) = block.intersect(one.lanes, t_min, *t_max);
+                Hits { mask, t: &t, u: &u, v: &v }.take(|lane| block.slot[lane], t_max, best);
+            }
+        } else {
+            let LeafRange { start, count } = self.ranges[(leaf & !LEAF_BIT) as usize];
+            for slot in start..start + count {
+                obs.prim_tested();
+                if let Some(hit) = prims.intersect(slot, one.ray, t_min, *t_max) {
+                    closer(BvhHit { slot, hit }, t_max, best);
                 }
             }
         }

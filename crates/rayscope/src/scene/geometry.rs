@@ -1,6 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, Motion, PrimRef, SceneSphere};
+use crate::bvh::packet::PACKET;
 use crate::bvh::shadow::Occluders;
 use crate::bvh::{BuildParams, Bvh, Bvh8, Primitives, TraversalObserver};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
@@ -160,6 +161,13 @@ impl Geometry {
     pub fn intersect<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         let hit = self.wide.intersect_counted(ray, self, stats);
         self.global_hit(hit)
+    }
+
+    /// Closest hits of up to [`PACKET`] rays, traced together when they share an origin
+    /// (see [`crate::bvh::packet`]); each is what [`Geometry::intersect`] gives.
+    #[inline]
+    pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; PACKET] {
+        self.wide.intersect_packet(rays, self).map(|h| self.global_hit(h))
     }
 
     /// Closest hit through the binary BVH (for the debugger, whose views show its nodes).

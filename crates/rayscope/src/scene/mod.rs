@@ -246,6 +246,14 @@ impl Scene {
         self.geometry.intersect(ray, &mut NoObserver)
     }
 
+    /// The closest hits of up to [`crate::bvh::packet::PACKET`] rays (camera rays of
+    /// neighbouring pixels): each is what [`Scene::intersect`] gives, found in one traversal
+    /// when the rays share an origin.
+    #[inline]
+    pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; crate::bvh::packet::PACKET] {
+        self.geometry.intersect_packet(rays)
+    }
+
     /// [`Scene::intersect`], reporting the traversal to `stats`.
     #[inline]
     pub fn intersect_counted<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
