@@ -197,6 +197,24 @@ fn degenerate_inputs() {
         &tri,
         [Ray::new(Vec3A::splat(f32::NAN), Vec3A::Z), Ray::new(Vec3A::ZERO, Vec3A::splat(f32::NAN))].into_iter(),
     );
+    // Lines rather than rays (intervals from -inf), down every axis: the empty child slots'
+    // boxes at +inf must stay out of reach.
+    let soup = random_soup(&mut rng, 300, 0.2);
+    let lines: Vec<Ray> = random_rays(&mut rng, 200, 1.0)
+        .into_iter()
+        .map(|mut r| {
+            r.dir = -r.dir.abs();
+            r.t.min = f32::NEG_INFINITY;
+            r
+        })
+        .collect();
+    check(&soup, lines.iter().copied());
+    let bounds: Vec<Aabb> = soup.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    let prims = Ordered { shapes: &soup, bvh: &bvh };
+    let packets: Vec<Vec<Ray>> =
+        lines.chunks(8).map(|c| c.iter().map(|r| Ray { origin: lines[0].origin, ..*r }).collect()).collect();
+    check_packets(&Bvh8::from_binary(&bvh, &prims), &prims, &packets);
     // Huge coordinates.
     let huge: Vec<Shape> = random_soup(&mut rng, 200, 0.3)
         .into_iter()

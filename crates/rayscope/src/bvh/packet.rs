@@ -66,7 +66,7 @@ struct Packet {
     inv_hi: [f32; 3],
     /// Per axis, each ray's inverse direction (lanes beyond the packet repeat ray 0).
     inv: [f32x8; 3],
-    /// Each ray's interval start.
+    /// Each ray's interval start (finite).
     t_min: f32x8,
     /// Smallest interval start over the packet.
     t_min_lo: f32,
@@ -136,8 +136,10 @@ impl Bvh8 {
             inv_lo,
             inv_hi,
             inv,
-            t_min: f32x8::new(std::array::from_fn(|lane| ray(lane).t.min)),
-            t_min_lo: rays.iter().map(|r| r.t.min).fold(f32::INFINITY, f32::min),
+            // Finite, as in the single-ray test: with an end at -inf, a ray going down every
+            // axis would meet the empty slots' boxes at +inf.
+            t_min: f32x8::new(std::array::from_fn(|lane| ray(lane).t.min.max(f32::MIN))),
+            t_min_lo: rays.iter().map(|r| r.t.min.max(f32::MIN)).fold(f32::INFINITY, f32::min),
             active: (1u32 << n) - 1,
         };
         let mut t_max: [f32; PACKET] = std::array::from_fn(|lane| ray(lane).t.max);

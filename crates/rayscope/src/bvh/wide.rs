@@ -414,8 +414,8 @@ macro_rules! portable_node_test {
                 let t = |row: usize, a: usize| (<$v>::new(n.bounds[row]) - self.o[a]) * self.inv[a];
                 let near = t(self.near[0], 0)
                     .fast_max(t(self.near[1], 1))
-                    .fast_max(t(self.near[2], 2).fast_max(<$v>::splat(t_min)));
-                // A finite t_max keeps empty slots (boxes at +inf) out.
+                    .fast_max(t(self.near[2], 2).fast_max(<$v>::splat(t_min.max(f32::MIN))));
+                // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
                 let far = t(self.far[0], 0)
                     .fast_min(t(self.far[1], 1))
                     .fast_min(t(self.far[2], 2).fast_min(<$v>::splat(t_max.min(f32::MAX))));
@@ -470,7 +470,7 @@ impl NodeTest<8> for Avx2Node8 {
             };
             let near = _mm256_max_ps(
                 _mm256_max_ps(plane(self.near[0], 0), plane(self.near[1], 1)),
-                _mm256_max_ps(plane(self.near[2], 2), _mm256_set1_ps(t_min)),
+                _mm256_max_ps(plane(self.near[2], 2), _mm256_set1_ps(t_min.max(f32::MIN))),
             );
             let far = _mm256_min_ps(
                 _mm256_min_ps(plane(self.far[0], 0), plane(self.far[1], 1)),
