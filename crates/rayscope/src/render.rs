@@ -251,35 +251,14 @@ pub fn render_pass(
                 let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
                 for (run, (sums, counts)) in runs.enumerate() {
                     let x0 = (run * PACKET) as u32;
-                    match still.as_ref() {
+                    rays.add(match still.as_ref() {
                         // Pixels side by side that are at the same sample: their camera rays
                         // share the pinhole and go through the BVH together.
                         Some(generator) if counts.iter().all(|c| *c == counts[0]) => {
-                            rays.add(sample_run(&integrator, camera, generator, x0, y, sums, counts, pass));
+                            sample_run(&integrator, camera, generator, x0, y, sums, counts, pass)
                         }
-                        _ => {
-                            for (i, (sum, count)) in sums.iter_mut().zip(counts.iter_mut()).enumerate() {
-                                let x = x0 + i as u32;
-                                let first = *count;
-                                let last = sample_range(first, pass);
-                                for k in first..last {
-                                    let (c, r) = sample_pixel(
-                                        &integrator,
-                                        camera,
-                                        still.as_ref(),
-                                        x,
-                                        y,
-                                        k,
-                                        pass,
-                                        &mut NoRecorder,
-                                    );
-                                    *sum += c;
-                                    rays.add(r);
-                                }
-                                *count = last;
-                            }
-                        }
-                    }
+                        _ => sample_alone(&integrator, camera, still.as_ref(), x0, y, sums, counts, pass),
+                    });
                 }
             }
             let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
@@ -382,6 +361,32 @@ fn sample_run(
         }
     }
     counts.fill(last);
+    total
+}
+
+/// Add `pass`'s samples to a run of pixels from `(x0, y)` rightwards one pixel and one sample
+/// at a time (pixels at different sample counts, or a moving camera).
+#[allow(clippy::too_many_arguments)]
+fn sample_alone(
+    integrator: &Integrator,
+    camera: &CameraMotion,
+    still: Option<&RayGenerator>,
+    x0: u32,
+    y: u32,
+    sums: &mut [Color],
+    counts: &mut [u32],
+    pass: SamplePass,
+) -> RayCounts {
+    let mut total = RayCounts::default();
+    for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
+        let last = sample_range(*count, pass);
+        for k in *count..last {
+            let (c, r) = sample_pixel(integrator, camera, still, x, y, k, pass, &mut NoRecorder);
+            *sum += c;
+            total.add(r);
+        }
+        *count = last;
+    }
     total
 }
 

@@ -280,13 +280,20 @@ fn scene_shapes(scene: &Scene) -> Vec<Shape> {
     shapes.into_iter().map(|s| s.unwrap()).collect()
 }
 
-#[test]
-fn course_scenes_match_brute_force() {
-    let assets = assets("course_scenes_match_brute_force");
+/// The built-in scenes the BVH tests trace: those made in code, and the course's meshes when
+/// their folder is there.
+fn course_scene_names(assets: Option<&std::path::PathBuf>) -> Vec<&'static str> {
     let mut names = vec!["cornell-box", "cube", "single-triangle", "spheres"];
     if assets.is_some() {
         names.extend(["monkey", "teapot", "dragon"]);
     }
+    names
+}
+
+#[test]
+fn course_scenes_match_brute_force() {
+    let assets = assets("course_scenes_match_brute_force");
+    let names = course_scene_names(assets.as_ref());
     let mut rng = Rng(5);
     for name in names {
         let scene = builtin_scene(name, assets.as_ref());
@@ -465,10 +472,7 @@ fn packets_equal_single_rays() {
 #[test]
 fn camera_packets_equal_single_rays_on_course_scenes() {
     let assets = assets("camera_packets_equal_single_rays_on_course_scenes");
-    let mut names = vec!["cornell-box", "cube", "single-triangle", "spheres"];
-    if assets.is_some() {
-        names.extend(["monkey", "teapot", "dragon"]);
-    }
+    let names = course_scene_names(assets.as_ref());
     for name in names {
         let scene = builtin_scene(name, assets.as_ref());
         let cam = scene.camera();

@@ -20,6 +20,7 @@ use wide::f32x8;
 
 use super::wide::{
     Bvh8, EMPTY, LEAF_BIT, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Stack, WideNode, planes, ray_is_finite,
+    sort_far_to_near,
 };
 use super::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
@@ -32,16 +33,16 @@ pub const PACKET: usize = 8;
 /// The closest hit of each ray of a packet (`None` beyond the rays given).
 pub type PacketHits = [Option<BvhHit>; PACKET];
 
-/// Whether `rays` can be traced as one packet: at most [`PACKET`] finite rays with the same
-/// origin (bit for bit) and, per axis, the same direction sign. Others are traced one by one.
-pub fn packet_compatible(rays: &[Ray]) -> bool {
+/// Whether `rays`, whose inverse directions are `invs`, can be traced as one packet: at most
+/// [`PACKET`] finite rays with the same origin (bit for bit) and, per axis, the same direction
+/// sign.
+fn packet_compatible(rays: &[Ray], invs: &[Vec3A; PACKET]) -> bool {
     let Some(first) = rays.first() else { return false };
-    let sign = |r: &Ray| safe_inv_dir(r.dir).cmplt(Vec3A::ZERO).bitmask();
+    let origin = first.origin.to_array().map(f32::to_bits);
+    let sign = |inv: &Vec3A| inv.cmplt(Vec3A::ZERO).bitmask();
     rays.len() <= PACKET
-        && rays.iter().all(|r| {
-            ray_is_finite(r)
-                && r.origin.to_array().map(f32::to_bits) == first.origin.to_array().map(f32::to_bits)
-                && sign(r) == sign(first)
+        && rays.iter().zip(invs).all(|(r, inv)| {
+            ray_is_finite(r) && r.origin.to_array().map(f32::to_bits) == origin && sign(inv) == sign(&invs[0])
         })
 }
 
@@ -64,7 +65,7 @@ struct Packet {
     /// Per axis, the smallest and largest inverse direction over the packet.
     inv_lo: [f32; 3],
     inv_hi: [f32; 3],
-    /// Per axis, each ray's inverse direction (lanes beyond the packet repeat ray 0).
+    /// Per axis, each ray's inverse direction (lanes beyond the packet repeat its last ray).
     inv: [f32x8; 3],
     /// Each ray's interval start (finite).
     t_min: f32x8,
@@ -75,14 +76,18 @@ struct Packet {
 }
 
 impl Bvh8 {
-    /// The closest hit of each of `rays` (a packet: see [`packet_compatible`], else each ray is
-    /// traced alone), identical to [`crate::bvh::WideBvh::intersect`] on each.
+    /// The closest hit of each of up to [`PACKET`] `rays`, identical to
+    /// [`crate::bvh::WideBvh::intersect`] on each: as one packet when they are finite, share
+    /// their origin bit for bit and have one direction sign per axis, else one by one.
     pub fn intersect_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
         let mut hits = [None; PACKET];
+        let Some(last) = rays.len().checked_sub(1) else { return hits };
         if self.nodes.is_empty() {
             return hits;
         }
-        if !packet_compatible(rays) {
+        // Lanes beyond the packet repeat its last ray.
+        let invs: [Vec3A; PACKET] = std::array::from_fn(|lane| safe_inv_dir(rays[lane.min(last)].dir));
+        if !packet_compatible(rays, &invs) {
             for (hit, ray) in hits.iter_mut().zip(rays) {
                 *hit = self.intersect(ray, prims);
             }
@@ -91,33 +96,42 @@ impl Bvh8 {
         #[cfg(target_arch = "x86_64")]
         if self.simd_level() == SimdLevel::Avx2 {
             // SAFETY: the level is Avx2 only where the CPU has those features.
-            unsafe { self.packet_avx2(rays, prims, &mut hits) };
+            unsafe { self.packet_avx2(rays, &invs, prims, &mut hits) };
             return hits;
         }
         // SAFETY: the portable test needs no CPU feature.
-        unsafe { self.packet_with::<<super::wide::Lanes<8> as NodeWidth<8>>::Portable, P>(rays, prims, &mut hits) };
+        unsafe {
+            self.packet_with::<<super::wide::Lanes<8> as NodeWidth<8>>::Portable, P>(rays, &invs, prims, &mut hits)
+        };
         hits
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    unsafe fn packet_avx2<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P, hits: &mut PacketHits) {
+    unsafe fn packet_avx2<P: Primitives + ?Sized>(
+        &self,
+        rays: &[Ray],
+        invs: &[Vec3A; PACKET],
+        prims: &P,
+        hits: &mut PacketHits,
+    ) {
         // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.packet_with::<<super::wide::Lanes<8> as NodeWidth<8>>::Avx2, P>(rays, prims, hits) }
+        unsafe { self.packet_with::<<super::wide::Lanes<8> as NodeWidth<8>>::Avx2, P>(rays, invs, prims, hits) }
     }
 
     /// The packet traversal, with `T` for each ray's leaf tests (the CPU must have its
-    /// features). `rays` is non-empty and packet-compatible.
+    /// features). `rays` is non-empty and packet-compatible, `invs` their inverse directions
+    /// (lanes beyond the packet repeating its last ray).
     #[inline(always)]
     unsafe fn packet_with<T: NodeTest<8>, P: Primitives + ?Sized>(
         &self,
         rays: &[Ray],
+        invs: &[Vec3A; PACKET],
         prims: &P,
         hits: &mut PacketHits,
     ) {
         let n = rays.len();
         let ray = |lane: usize| &rays[lane.min(n - 1)];
-        let invs: [Vec3A; PACKET] = std::array::from_fn(|lane| safe_inv_dir(ray(lane).dir));
         let axis = |a: usize| f32x8::new(invs.map(|v| v[a]));
         let inv = [axis(0), axis(1), axis(2)];
         let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
@@ -205,7 +219,7 @@ impl Bvh8 {
                 }
                 if k > 0 {
                     // Nearest child next; the others pushed farthest first.
-                    sort_far_to_near(&mut order[..k]);
+                    sort_far_to_near(&mut order[..k], |e| e.near);
                     for &e in &order[..k - 1] {
                         stack.push(e);
                     }
@@ -263,19 +277,5 @@ impl Packet {
             .fast_min(plane(self.far_row[1], 1))
             .fast_min(plane(self.far_row[2], 2).fast_min(t_max.fast_min(f32x8::splat(f32::MAX))));
         near.simd_le(far).to_bitmask() & self.active
-    }
-}
-
-/// Sort entries farthest first (insertion sort: at most eight).
-#[inline(always)]
-fn sort_far_to_near(order: &mut [Entry]) {
-    for i in 1..order.len() {
-        let e = order[i];
-        let mut j = i;
-        while j > 0 && order[j - 1].near < e.near {
-            order[j] = order[j - 1];
-            j -= 1;
-        }
-        order[j] = e;
     }
 }

@@ -562,13 +562,14 @@ type PortableTest<const W: usize> = <Lanes<W> as NodeWidth<W>>::Portable;
 #[cfg(target_arch = "x86_64")]
 type Avx2Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx2;
 
-/// Sort `(child, entry distance)` pairs farthest first (insertion sort: at most eight).
+/// Sort traversal entries farthest first by their entry distance `near` (insertion sort: at
+/// most eight); single rays and packets both order their children with it.
 #[inline(always)]
-fn sort_far_to_near(order: &mut [(u32, f32)]) {
+pub(super) fn sort_far_to_near<E: Copy>(order: &mut [E], near: impl Fn(&E) -> f32) {
     for i in 1..order.len() {
         let e = order[i];
         let mut j = i;
-        while j > 0 && order[j - 1].1 < e.1 {
+        while j > 0 && near(&order[j - 1]) < near(&e) {
             order[j] = order[j - 1];
             j -= 1;
         }
@@ -834,7 +835,7 @@ where
                         self.prefetch(node.child[i]);
                         k += 1;
                     }
-                    sort_far_to_near(&mut order[..k]);
+                    sort_far_to_near(&mut order[..k], |e| e.1);
                     for &e in &order[..k - 1] {
                         stack.push(e);
                     }
