@@ -1,13 +1,15 @@
 //! A flat binary BVH: binned-SAH build ([`build`]), closest-hit and any-hit traversal
 //! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]); and the wide
-//! trees that rendering traverses ([`wide`]), with packets of camera rays ([`packet`]) and
-//! grouped shadow rays ([`shadow`]).
+//! trees that rendering traverses ([`wide`]), collapsed from the binary one by the surface
+//! area heuristic ([`collapse`]), with packets of camera rays ([`packet`]) and grouped shadow
+//! rays ([`shadow`]).
 //!
 //! The BVH knows only boxes. Primitives are reached through the [`Primitives`] trait by their
 //! position in [`Bvh::prim_indices`] order, so the owner can store them in that order and a
 //! leaf's primitives sit next to each other in memory.
 
 pub mod build;
+pub mod collapse;
 pub mod node;
 pub mod packet;
 pub mod shadow;

@@ -16,11 +16,11 @@
 //! per-ray test, and ties between equally distant primitives go to the lower slot whatever
 //! the order leaves are visited in.
 
-use wide::f32x8;
+use wide::{f32x8, i32x8};
 
 use super::wide::{
-    Bvh8, EMPTY, LEAF_BIT, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Stack, WideNode, planes, ray_is_finite,
-    sort_far_to_near,
+    Bvh8, EMPTY, LEAF_BIT, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Stack, WideNode, fused_mul_sub, planes,
+    ray_is_finite, sort_far_to_near,
 };
 use super::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
@@ -67,8 +67,17 @@ struct Packet {
     inv_hi: [f32; 3],
     /// Per axis, each ray's inverse direction (lanes beyond the packet repeat its last ray).
     inv: [f32x8; 3],
+    /// Per axis, each ray's `o * inv`, rounded once (as the single-ray test has it).
+    oinv: [f32x8; 3],
+    /// Per axis, a bound on the rounding error of the single-ray test's `o * inv` term over
+    /// the packet, which the inner nodes' test allows for.
+    slack: [f32; 3],
     /// Each ray's interval start (finite).
     t_min: f32x8,
+    /// The lanes whose interval starts at or after zero (tested in integer order), and their
+    /// starts with -0 made +0.
+    nonneg: u32,
+    t_min_pos: f32x8,
     /// Smallest interval start over the packet.
     t_min_lo: f32,
     /// Rays in the packet.
@@ -134,6 +143,8 @@ impl Bvh8 {
         let ray = |lane: usize| &rays[lane.min(n - 1)];
         let axis = |a: usize| f32x8::new(invs.map(|v| v[a]));
         let inv = [axis(0), axis(1), axis(2)];
+        let o = rays[0].origin;
+        let oinv_axis = |a: usize| f32x8::new(invs.map(|v| o[a] * v[a]));
         let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for v in &invs[..n] {
             for a in 0..3 {
@@ -143,13 +154,19 @@ impl Bvh8 {
         }
         // The rows entered and left by are the same for every ray: one sign per axis.
         let (near_row, far_row) = planes(invs[0]);
+        let t_min_of = |lane: usize| ray(lane).t.min;
         let p = Packet {
-            o: rays[0].origin,
+            o,
             near_row,
             far_row,
             inv_lo,
             inv_hi,
             inv,
+            oinv: [oinv_axis(0), oinv_axis(1), oinv_axis(2)],
+            // Twice the worst rounding of `o * inv` (2^-24 relative), with room to spare.
+            slack: std::array::from_fn(|a| o[a].abs() * inv_lo[a].abs().max(inv_hi[a].abs()) * (2.0f32).powi(-22)),
+            nonneg: (0..PACKET).filter(|&lane| t_min_of(lane) >= 0.0).fold(0, |m, lane| m | 1 << lane),
+            t_min_pos: f32x8::new(std::array::from_fn(|lane| t_min_of(lane) + 0.0)),
             // Finite, as in the single-ray test: with an end at -inf, a ray going down every
             // axis would meet the empty slots' boxes at +inf.
             t_min: f32x8::new(std::array::from_fn(|lane| ray(lane).t.min.max(f32::MIN))),
@@ -246,14 +263,18 @@ impl Packet {
     fn test(&self, node: &WideNode<8>, t_far: f32) -> ([f32; 8], u32) {
         let zero = f32x8::ZERO;
         // With the origin shared, `(plane - o) * inv` is, over the packet, smallest at the
-        // smallest inverse direction when `plane - o >= 0` and at the largest otherwise
-        // (rounding is monotonic, so this holds for the computed values too), and largest
-        // the other way round.
+        // smallest inverse direction when `plane - o >= 0` and at the largest otherwise, and
+        // largest the other way round.
+        // The single-ray test rounds differently (`p * inv - o * inv`, fused): its distances
+        // are within 2^-22 of the bound's magnitude plus `slack` of these (see `slack`), so
+        // each bound is widened by a little more than that.
         let bound = |row: usize, a: usize, lowest: bool| {
             let d = f32x8::new(node.bounds[row]) - f32x8::splat(self.o[a]);
             let (lo, hi) = (f32x8::splat(self.inv_lo[a]), f32x8::splat(self.inv_hi[a]));
             let ge = d.simd_ge(zero);
-            d * if lowest { ge.bitselect(lo, hi) } else { ge.bitselect(hi, lo) }
+            let b = d * if lowest { ge.bitselect(lo, hi) } else { ge.bitselect(hi, lo) };
+            let margin = b.abs() * f32x8::splat((2.0f32).powi(-21)) + f32x8::splat(self.slack[a]);
+            if lowest { b - margin } else { b + margin }
         };
         let near = bound(self.near_row[0], 0, true)
             .fast_max(bound(self.near_row[1], 1, true))
@@ -269,13 +290,20 @@ impl Packet {
     /// single-ray traversal tests a box (the same operations, lane by lane).
     #[inline(always)]
     fn leaf_lanes(&self, node: &WideNode<8>, i: usize, t_max: f32x8) -> u32 {
-        let plane = |row: usize, a: usize| f32x8::splat(node.bounds[row][i] - self.o[a]) * self.inv[a];
-        let near = plane(self.near_row[0], 0)
-            .fast_max(plane(self.near_row[1], 1))
-            .fast_max(plane(self.near_row[2], 2).fast_max(self.t_min));
-        let far = plane(self.far_row[0], 0)
-            .fast_min(plane(self.far_row[1], 1))
-            .fast_min(plane(self.far_row[2], 2).fast_min(t_max.fast_min(f32x8::splat(f32::MAX))));
-        near.simd_le(far).to_bitmask() & self.active
+        let t = |row: usize, a: usize| fused_mul_sub(f32x8::splat(node.bounds[row][i]), self.inv[a], self.oinv[a]);
+        let (n0, n1, n2) = (t(self.near_row[0], 0), t(self.near_row[1], 1), t(self.near_row[2], 2));
+        let (f0, f1, f2) = (t(self.far_row[0], 0), t(self.far_row[1], 1), t(self.far_row[2], 2));
+        let t_max = t_max.fast_min(f32x8::splat(f32::MAX));
+        let c = |v: f32x8| -> i32x8 { wide::bytemuck::cast(v) };
+        let near = c(n0).max(c(n1)).max(c(n2).max(c(self.t_min_pos)));
+        let far = c(f0).min(c(f1)).min(c(f2).min(c(t_max)));
+        let mut hit = !near.simd_gt(far).to_bitmask() & self.nonneg;
+        if self.nonneg & self.active != self.active {
+            // Lines among the rays: float order for them.
+            let near = n0.fast_max(n1).fast_max(n2.fast_max(self.t_min));
+            let far = f0.fast_min(f1).fast_min(f2.fast_min(t_max));
+            hit |= near.simd_le(far).to_bitmask() & !self.nonneg;
+        }
+        hit & self.active
     }
 }

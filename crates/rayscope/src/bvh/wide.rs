@@ -6,8 +6,27 @@
 //! kept to measure one against the other. Wider nodes mean fewer levels, and with them fewer
 //! loop iterations, stack entries and dependent loads per ray. The binary BVH stays for the
 //! debugger's level view.
+//!
+//! # The slab test
+//!
+//! Every box test of the wide trees (single rays, packets' leaves, any-hit) computes the same
+//! bits, on every instruction set, so that hits never depend on the code path:
+//! - the distance to a plane `p` along axis `a` is `p * inv[a] - o[a] * inv[a]` with one
+//!   rounding (a fused multiply-subtract; `o[a] * inv[a]` is rounded once per ray). Against
+//!   `(p - o[a]) * inv[a]` it takes one instruction where that takes two, on the chain of
+//!   dependent operations that each node visit waits for. [`safe_inv_dir`] makes the inverse
+//!   of a zero direction component a power of two, so that for a ray parallel to a slab
+//!   `o[a] * inv[a]` is exact and so is the sign of every distance;
+//! - when the ray's interval starts at or after zero (every ray the renderer makes), the
+//!   entry distance is the maximum of the three entry planes' distances and the interval
+//!   start, the exit distance the minimum of the exit planes' and the interval end, and the
+//!   box is hit when entry <= exit, all compared as the floats' bit patterns read as signed
+//!   integers. For non-negative floats that order is the float order, and a negative exit
+//!   (a box behind the ray) reads as negative and is rejected; integer max, min and compare
+//!   take one cycle where the float ones take three or four. Lines (intervals starting below
+//!   zero) are tested with float max, min and compare.
 
-use wide::{f32x4, f32x8};
+use wide::{f32x4, f32x8, i32x4, i32x8};
 
 use super::{Bvh, BvhError, BvhHit, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::Aabb;
@@ -51,13 +70,11 @@ pub const EMPTY: u32 = u32::MAX;
 /// Set on a child reference that is a leaf.
 pub(super) const LEAF_BIT: u32 = 1 << 31;
 /// Set, with [`LEAF_BIT`], on a leaf of packed triangles ([`Tri4`] blocks).
-const PACKED_BIT: u32 = 1 << 30;
+pub(super) const PACKED_BIT: u32 = 1 << 30;
 /// Bits of a packed leaf reference that hold its first block.
-const BLOCK_BITS: u32 = 26;
-/// Binary trees with more nodes than this collapse on several threads.
-const PARALLEL_COLLAPSE: usize = 1 << 13;
+pub(super) const BLOCK_BITS: u32 = 26;
 /// Most blocks one packed leaf holds (4 bits of count - 1); larger leaves use ranges.
-const MAX_BLOCKS: u32 = 16;
+pub(super) const MAX_BLOCKS: u32 = 16;
 
 /// Rows of [`WideNode::bounds`]: lower x, y, z, then upper x, y, z.
 const ROWS: usize = 6;
@@ -88,11 +105,11 @@ const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
 const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
 
 impl<const W: usize> WideNode<W> {
-    fn empty() -> Self {
+    pub(super) fn empty() -> Self {
         WideNode { bounds: [[f32::INFINITY; W]; ROWS], child: [EMPTY; W] }
     }
 
-    fn set(&mut self, i: usize, b: &Aabb, child: u32) {
+    pub(super) fn set(&mut self, i: usize, b: &Aabb, child: u32) {
         for axis in 0..3 {
             self.bounds[axis][i] = b.min[axis];
             self.bounds[axis + 3][i] = b.max[axis];
@@ -126,7 +143,7 @@ pub struct Tri4 {
 const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
 
 impl Tri4 {
-    fn pack(tris: impl Iterator<Item = (u32, Triangle)>) -> Tri4 {
+    pub(super) fn pack(tris: impl Iterator<Item = (u32, Triangle)>) -> Tri4 {
         let mut t = Tri4::EMPTY;
         for (lane, (slot, tri)) in tris.take(4).enumerate() {
             for axis in 0..3 {
@@ -208,7 +225,7 @@ pub(super) fn is_packed(child: u32) -> bool {
 }
 
 /// Where a range leaf's primitives are: slots `start..start + count`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LeafRange {
     /// First slot.
     pub start: u32,
@@ -233,7 +250,7 @@ pub struct WideBvh<const W: usize> {
     pub ranges: Vec<LeafRange>,
     /// The traversal variant: [`SimdLevel::detect`] when built. Private so that it can only
     /// name a level the CPU has; [`WideBvh::portable`] selects the baseline.
-    simd: SimdLevel,
+    pub(super) simd: SimdLevel,
 }
 
 /// The 4-wide BVH (128-byte nodes, tested with 4-lane vectors).
@@ -264,6 +281,13 @@ impl<T: Copy> Stack<T> {
         // at most W - 1 entries; the bounds check stays as a guard.
         self.items[self.len].write(v);
         self.len += 1;
+    }
+
+    /// Push `v` if `keep`; the slot above the top is written either way, so no branch.
+    #[inline(always)]
+    pub(super) fn push_if(&mut self, v: T, keep: bool) {
+        self.items[self.len].write(v);
+        self.len += usize::from(keep);
     }
 
     #[inline(always)]
@@ -328,11 +352,13 @@ pub trait NodeTest<const W: usize>: Sized {
     unsafe fn new(ray: &Ray, inv: Vec3A) -> Self;
 
     /// Entry distances of the node's `W` child boxes and the mask of those hit within
-    /// `[t_min, t_max]`, computed as the scalar [`Aabb::hit_distance`] does.
+    /// `[t_min, t_max]`, by the slab test of the module documentation. `FORWARD` says that
+    /// `t_min >= 0` (distances then compare in integer order); the traversals choose it once
+    /// per ray, as a branch per node measured 8% slower.
     ///
     /// # Safety
     /// As for [`NodeTest::new`].
-    unsafe fn test(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
     /// Two packed blocks at once, as the packed 4-wide test (`Tri4::intersect`) gives them:
     /// lanes 0..4 are `a`'s, 4..8 are `b`'s. Both are tested against `[t_min, t_max]`.
@@ -387,12 +413,62 @@ fn closer(hit: BvhHit, t_max: &mut f32, best: &mut Option<BvhHit>) {
 /// The lanes hit and their `t`, `u`, `v`, for eight triangles.
 pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
 
+/// `a * b - c` with one rounding, lane by lane: the AVX2 test's `vfmsub`, bit for bit. The
+/// `wide` vectors fuse it only where the crate is compiled for FMA (or NEON); elsewhere each
+/// lane goes through `f32::mul_add` (an instruction in code compiled for FMA, else libm's
+/// exact `fmaf`: the baseline traversal is slower, never different).
+#[inline(always)]
+pub(super) fn fused_mul_sub<const N: usize, V>(a: V, b: V, c: V) -> V
+where
+    V: Copy + Lanes8<N>,
+{
+    if cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon"))) {
+        a.mul_sub_fused(b, c)
+    } else {
+        let (a, b, c) = (a.lanes(), b.lanes(), c.lanes());
+        V::from_lanes(std::array::from_fn(|i| a[i].mul_add(b[i], -c[i])))
+    }
+}
+
+/// The `wide` vector types the portable tests use, as arrays of lanes.
+pub(super) trait Lanes8<const N: usize> {
+    /// `self * b - c`, fused where `wide` fuses it.
+    fn mul_sub_fused(self, b: Self, c: Self) -> Self;
+    /// The lanes.
+    fn lanes(self) -> [f32; N];
+    /// From lanes.
+    fn from_lanes(l: [f32; N]) -> Self;
+}
+
+macro_rules! lanes_impl {
+    ($v:ty, $n:literal) => {
+        impl Lanes8<$n> for $v {
+            #[inline(always)]
+            fn mul_sub_fused(self, b: Self, c: Self) -> Self {
+                self.mul_sub(b, c)
+            }
+            #[inline(always)]
+            fn lanes(self) -> [f32; $n] {
+                self.to_array()
+            }
+            #[inline(always)]
+            fn from_lanes(l: [f32; $n]) -> Self {
+                <$v>::new(l)
+            }
+        }
+    };
+}
+
+lanes_impl!(f32x4, 4);
+lanes_impl!(f32x8, 8);
+
 macro_rules! portable_node_test {
-    ($name:ident, $w:literal, $v:ty) => {
+    ($name:ident, $w:literal, $v:ty, $i:ty) => {
         /// The slab test on the portable `wide` vectors.
         pub struct $name {
-            o: [$v; 3],
             inv: [$v; 3],
+            /// `o * inv` per axis, rounded once.
+            oinv: [$v; 3],
             near: [usize; 3],
             far: [usize; 3],
         }
@@ -401,32 +477,43 @@ macro_rules! portable_node_test {
             #[inline(always)]
             unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
                 let (near, far) = planes(inv);
+                let oinv = ray.origin * inv;
                 $name {
-                    o: [<$v>::splat(ray.origin.x), <$v>::splat(ray.origin.y), <$v>::splat(ray.origin.z)],
                     inv: [<$v>::splat(inv.x), <$v>::splat(inv.y), <$v>::splat(inv.z)],
+                    oinv: [<$v>::splat(oinv.x), <$v>::splat(oinv.y), <$v>::splat(oinv.z)],
                     near,
                     far,
                 }
             }
 
             #[inline(always)]
-            unsafe fn test(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
-                let t = |row: usize, a: usize| (<$v>::new(n.bounds[row]) - self.o[a]) * self.inv[a];
+            unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
+                let t = |row: usize, a: usize| fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], self.oinv[a]);
+                // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
+                let t_max = <$v>::splat(t_max.min(f32::MAX));
+                if FORWARD {
+                    // Integer order (see the module documentation); `+ 0.0` turns -0 into +0.
+                    let i = |v: $v| -> $i { wide::bytemuck::cast(v) };
+                    let near = i(t(self.near[0], 0))
+                        .max(i(t(self.near[1], 1)))
+                        .max(i(t(self.near[2], 2)).max(i(<$v>::splat(t_min + 0.0))));
+                    let far = i(t(self.far[0], 0)).min(i(t(self.far[1], 1))).min(i(t(self.far[2], 2)).min(i(t_max)));
+                    let miss = near.simd_gt(far).to_bitmask() as u32;
+                    let near: $v = wide::bytemuck::cast(near);
+                    return (near.to_array(), !miss & ((1 << $w) - 1));
+                }
                 let near = t(self.near[0], 0)
                     .fast_max(t(self.near[1], 1))
                     .fast_max(t(self.near[2], 2).fast_max(<$v>::splat(t_min.max(f32::MIN))));
-                // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
-                let far = t(self.far[0], 0)
-                    .fast_min(t(self.far[1], 1))
-                    .fast_min(t(self.far[2], 2).fast_min(<$v>::splat(t_max.min(f32::MAX))));
+                let far = t(self.far[0], 0).fast_min(t(self.far[1], 1)).fast_min(t(self.far[2], 2).fast_min(t_max));
                 (near.to_array(), near.simd_le(far).to_bitmask())
             }
         }
     };
 }
 
-portable_node_test!(Portable4, 4, f32x4);
-portable_node_test!(Portable8, 8, f32x8);
+portable_node_test!(Portable4, 4, f32x4, i32x4);
+portable_node_test!(Portable8, 8, f32x8, i32x8);
 
 /// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step.
 #[cfg(target_arch = "x86_64")]
@@ -434,6 +521,7 @@ pub struct Avx2Node8 {
     o: [std::arch::x86_64::__m256; 3],
     dir: [std::arch::x86_64::__m256; 3],
     inv: [std::arch::x86_64::__m256; 3],
+    oinv: [std::arch::x86_64::__m256; 3],
     near: [usize; 3],
     far: [usize; 3],
 }
@@ -446,12 +534,14 @@ impl NodeTest<8> for Avx2Node8 {
     unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
         use std::arch::x86_64::_mm256_set1_ps as splat;
         let (near, far) = planes(inv);
+        let oinv = ray.origin * inv;
         // SAFETY: the caller vouches for AVX2.
         unsafe {
             Avx2Node8 {
                 o: [splat(ray.origin.x), splat(ray.origin.y), splat(ray.origin.z)],
                 dir: [splat(ray.dir.x), splat(ray.dir.y), splat(ray.dir.z)],
                 inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
+                oinv: [splat(oinv.x), splat(oinv.y), splat(oinv.z)],
                 near,
                 far,
             }
@@ -459,24 +549,39 @@ impl NodeTest<8> for Avx2Node8 {
     }
 
     #[inline(always)]
-    unsafe fn test(&self, n: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
         use std::arch::x86_64::*;
-        // SAFETY: the caller vouches for AVX2; nodes are 64-byte aligned and each row is 32
-        // bytes, as the aligned loads need; `d` holds eight floats.
+        // SAFETY: the caller vouches for AVX2 and FMA; nodes are 64-byte aligned and each row
+        // is 32 bytes, as the aligned loads need; `d` holds eight floats.
         unsafe {
             // The same operations, in the same order, as the portable test: identical results.
-            let plane = |row: usize, a: usize| {
-                _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.bounds[row].as_ptr()), self.o[a]), self.inv[a])
+            let t = |row: usize, a: usize| {
+                _mm256_fmsub_ps(_mm256_load_ps(n.bounds[row].as_ptr()), self.inv[a], self.oinv[a])
             };
+            let t_max = _mm256_set1_ps(t_max.min(f32::MAX));
+            let mut d = [0.0f32; 8];
+            if FORWARD {
+                let i = _mm256_castps_si256;
+                let near = _mm256_max_epi32(
+                    _mm256_max_epi32(i(t(self.near[0], 0)), i(t(self.near[1], 1))),
+                    _mm256_max_epi32(i(t(self.near[2], 2)), i(_mm256_set1_ps(t_min + 0.0))),
+                );
+                let far = _mm256_min_epi32(
+                    _mm256_min_epi32(i(t(self.far[0], 0)), i(t(self.far[1], 1))),
+                    _mm256_min_epi32(i(t(self.far[2], 2)), i(t_max)),
+                );
+                let miss = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(near, far))) as u32;
+                _mm256_storeu_ps(d.as_mut_ptr(), _mm256_castsi256_ps(near));
+                return (d, !miss & 0xff);
+            }
             let near = _mm256_max_ps(
-                _mm256_max_ps(plane(self.near[0], 0), plane(self.near[1], 1)),
-                _mm256_max_ps(plane(self.near[2], 2), _mm256_set1_ps(t_min.max(f32::MIN))),
+                _mm256_max_ps(t(self.near[0], 0), t(self.near[1], 1)),
+                _mm256_max_ps(t(self.near[2], 2), _mm256_set1_ps(t_min.max(f32::MIN))),
             );
             let far = _mm256_min_ps(
-                _mm256_min_ps(plane(self.far[0], 0), plane(self.far[1], 1)),
-                _mm256_min_ps(plane(self.far[2], 2), _mm256_set1_ps(t_max.min(f32::MAX))),
+                _mm256_min_ps(t(self.far[0], 0), t(self.far[1], 1)),
+                _mm256_min_ps(t(self.far[2], 2), t_max),
             );
-            let mut d = [0.0f32; 8];
             _mm256_storeu_ps(d.as_mut_ptr(), near);
             (d, _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32)
         }
@@ -581,6 +686,19 @@ impl<const W: usize> WideBvh<W>
 where
     Lanes<W>: NodeWidth<W>,
 {
+    /// A packed leaf's blocks two at a time, with the lanes of the pair that are the leaf's:
+    /// `0xff`, or `0x0f` for a last odd block, paired with the block after it (or an empty
+    /// one at the end of the array) so that every step is one eight-lane test.
+    #[inline(always)]
+    pub(super) fn block_pairs(&self, leaf: u32) -> impl Iterator<Item = (&Tri4, &Tri4, u32)> {
+        let range = packed_blocks(leaf);
+        let end = range.end;
+        range.step_by(2).map(move |i| {
+            let b = self.blocks.get(i + 1).unwrap_or(&Tri4::EMPTY);
+            (&self.blocks[i], b, if i + 1 < end { 0xff } else { 0x0f })
+        })
+    }
+
     /// Ask for a child's memory as soon as its box is hit, so that the loads overlap the
     /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic).
     #[inline(always)]
@@ -589,7 +707,7 @@ where
         {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
             let (p, lines): (*const i8, usize) = if is_packed(child) {
-                (self.blocks.as_ptr().wrapping_add(packed_blocks(child).start).cast(), 3)
+                (self.blocks.as_ptr().wrapping_add(packed_blocks(child).start).cast(), 5)
             } else if child & LEAF_BIT == 0 {
                 (self.nodes.as_ptr().wrapping_add(child as usize).cast(), size_of::<WideNode<W>>() / 64)
             } else {
@@ -604,70 +722,29 @@ where
         let _ = child;
     }
 
-    /// Collapse a binary BVH: each node takes its binary node's children and keeps opening
-    /// the largest interior one (by surface area) until it has `W`. Leaves of static
-    /// triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
-    pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
-        let mut out = WideBvh { simd: SimdLevel::detect(), ..WideBvh::default() };
-        let Some(root) = bin.nodes.first() else { return out };
-        out.nodes.push(WideNode::empty());
-        if root.is_leaf() {
-            let r = out.leaf(prims, root.start, root.count);
-            out.nodes[0].set(0, &root.bounds(), r);
-        } else if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << BLOCK_BITS {
-            out.fill(bin, prims, 0, 0);
-        } else {
-            // The root's subtrees collapse on separate tasks, then join the root's tree with
-            // their references moved past what is already there.
-            use rayon::prelude::*;
-            let (kids, len) = Self::open(bin, 0);
-            let parts: Vec<Option<WideBvh<W>>> = kids[..len]
-                .par_iter()
-                .map(|&k| {
-                    (!bin.nodes[k].is_leaf()).then(|| {
-                        let mut part = WideBvh { nodes: vec![WideNode::empty()], ..WideBvh::default() };
-                        part.fill(bin, prims, k, 0);
-                        part
-                    })
-                })
-                .collect();
-            let mut top = WideNode::empty();
-            for (slot, (&k, part)) in kids[..len].iter().zip(parts).enumerate() {
-                let child = &bin.nodes[k];
-                let r = match part {
-                    Some(part) => out.append(part),
-                    None => out.leaf(prims, child.start, child.count),
-                };
-                top.set(slot, &child.bounds(), r);
-            }
-            out.nodes[0] = top;
-        }
-        out
-    }
-
-    /// Add the nodes, blocks and ranges of `part` (a tree of its own, root at 0) after this
-    /// tree's, moving its references along; returns the reference to its root.
-    fn append(&mut self, part: WideBvh<W>) -> u32 {
-        let (nodes, blocks, ranges) = (self.nodes.len() as u32, self.blocks.len() as u32, self.ranges.len() as u32);
-        let moved = |c: u32| {
-            if c == EMPTY {
-                c
-            } else if is_packed(c) {
-                // The caller checked that every block index fits in BLOCK_BITS.
-                c + blocks
-            } else if c & LEAF_BIT != 0 {
-                c + ranges
+    /// [`WideBvh::prefetch`] choosing the address without branches: the first lines of a
+    /// node or of a packed leaf's blocks (of the first node for a range leaf or an empty slot).
+    #[inline(always)]
+    pub(super) fn prefetch_branchless(&self, child: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let node = self.nodes.as_ptr().wrapping_add((child & !(LEAF_BIT | PACKED_BIT)) as usize) as *const i8;
+            let block = self.blocks.as_ptr().wrapping_add((child & ((1 << BLOCK_BITS) - 1)) as usize) as *const i8;
+            let p = if is_packed(child) {
+                block
+            } else if child & LEAF_BIT == 0 {
+                node
             } else {
-                c + nodes
+                self.nodes.as_ptr() as *const i8
+            };
+            for line in 0..4 {
+                // SAFETY: a prefetch is a hint and never faults, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
             }
-        };
-        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
-            n.child = n.child.map(moved);
-            n
-        }));
-        self.blocks.extend(part.blocks);
-        self.ranges.extend(part.ranges);
-        nodes
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = child;
     }
 
     /// The traversal variant in use.
@@ -679,73 +756,6 @@ where
     pub fn portable(mut self) -> Self {
         self.simd = SimdLevel::Portable;
         self
-    }
-
-    /// A leaf reference for slots `start..start + count`: packed blocks when every primitive
-    /// is a static triangle and there are few enough, else a range.
-    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, start: u32, count: u32) -> u32 {
-        let packable = count.div_ceil(4) <= MAX_BLOCKS
-            && (self.blocks.len() as u32) < (1 << BLOCK_BITS)
-            && (start..start + count).all(|s| prims.triangle(s).is_some());
-        if packable {
-            let first = self.blocks.len() as u32;
-            for chunk in (start..start + count).step_by(4) {
-                let end = (chunk + 4).min(start + count);
-                self.blocks.push(Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t)))));
-            }
-            let n = self.blocks.len() as u32 - first;
-            LEAF_BIT | PACKED_BIT | ((n - 1) << BLOCK_BITS) | first
-        } else {
-            self.ranges.push(LeafRange { start, count });
-            LEAF_BIT | (self.ranges.len() as u32 - 1)
-        }
-    }
-
-    /// The binary nodes that become the children of the wide node for binary node
-    /// `bin_index`: its children, the largest interior one (by surface area) opened until
-    /// there are `W` (no allocation: this runs once per node of the collapsed tree).
-    fn open(bin: &Bvh, bin_index: usize) -> ([usize; W], usize) {
-        let node = &bin.nodes[bin_index];
-        let mut kids = [0usize; W];
-        kids[0] = bin_index + 1;
-        kids[1] = node.start as usize;
-        let mut len = 2;
-        while len < W {
-            let widest =
-                kids[..len].iter().enumerate().filter(|(_, k)| !bin.nodes[**k].is_leaf()).max_by(|a, b| {
-                    bin.nodes[*a.1].bounds().half_area().total_cmp(&bin.nodes[*b.1].bounds().half_area())
-                });
-            let Some((i, &k)) = widest else { break };
-            let n = &bin.nodes[k];
-            kids[i] = k + 1;
-            kids[len] = n.start as usize;
-            len += 1;
-        }
-        (kids, len)
-    }
-
-    fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, prims: &P, bin_index: usize, at: usize) {
-        let (kids, len) = Self::open(bin, bin_index);
-        let mut wide = WideNode::empty();
-        let mut interior = [(0usize, 0usize); W];
-        let mut n_interior = 0;
-        for (slot, &k) in kids[..len].iter().enumerate() {
-            let child = &bin.nodes[k];
-            if child.is_leaf() {
-                let r = self.leaf(prims, child.start, child.count);
-                wide.set(slot, &child.bounds(), r);
-            } else {
-                let idx = self.nodes.len();
-                self.nodes.push(WideNode::empty());
-                wide.set(slot, &child.bounds(), idx as u32);
-                interior[n_interior] = (k, idx);
-                n_interior += 1;
-            }
-        }
-        self.nodes[at] = wide;
-        for &(k, idx) in &interior[..n_interior] {
-            self.fill(bin, prims, k, idx);
-        }
     }
 
     /// The closest hit along `ray` within its interval.
@@ -772,7 +782,13 @@ where
             return unsafe { self.intersect_avx2(ray, prims, obs) };
         }
         // SAFETY: the portable test needs no CPU feature.
-        unsafe { self.intersect_with::<PortableTest<W>, P, O>(ray, prims, obs) }
+        unsafe {
+            if ray.t.min >= 0.0 {
+                self.intersect_with::<PortableTest<W>, P, O, true>(ray, prims, obs)
+            } else {
+                self.intersect_with::<PortableTest<W>, P, O, false>(ray, prims, obs)
+            }
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -784,12 +800,18 @@ where
         obs: &mut O,
     ) -> Option<BvhHit> {
         // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.intersect_with::<Avx2Test<W>, P, O>(ray, prims, obs) }
+        unsafe {
+            if ray.t.min >= 0.0 {
+                self.intersect_with::<Avx2Test<W>, P, O, true>(ray, prims, obs)
+            } else {
+                self.intersect_with::<Avx2Test<W>, P, O, false>(ray, prims, obs)
+            }
+        }
     }
 
     /// The closest-hit traversal with node test `T` (the CPU must have its features).
     #[inline(always)]
-    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
         &self,
         ray: &Ray,
         prims: &P,
@@ -814,13 +836,28 @@ where
                 obs.entered(current);
                 obs.boxes_tested(W as u32);
                 // SAFETY: as for `T::new`.
-                let (near, mut mask) = unsafe { boxes.test(node, t_min, t_max) };
+                let (near, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     if mask == 0 {
-                        // One child hit (the common case deep in the tree): no ordering.
                         current = node.child[first];
+                        continue;
+                    }
+                    if mask & mask.wrapping_sub(1) == 0 {
+                        // One or two children hit (five in six nodes that are hit): without
+                        // branches, which the varying count and order would mispredict. With
+                        // one, `second` is `first` and the entry written above the stack's top
+                        // is not kept.
+                        let second = mask.trailing_zeros() as usize;
+                        let second = if second < W { second } else { first };
+                        let a = (node.child[first], near[first]);
+                        let b = (node.child[second], near[second]);
+                        let b_nearer = b.1 < a.1;
+                        let (nearer, farther) = (if b_nearer { b } else { a }, if b_nearer { a } else { b });
+                        self.prefetch_branchless(farther.0);
+                        stack.push_if(farther, mask != 0);
+                        current = nearer.0;
                         continue;
                     }
                     // Visit the nearest hit child now; push the others, farthest first.
@@ -870,23 +907,21 @@ where
     ) {
         let t_min = one.ray.t.min;
         if is_packed(leaf) {
-            // Blocks two at a time (one 8-lane test where the CPU has AVX2), then the last one
-            // alone. A lane beyond a closer hit in an earlier block of the pair is dropped by
-            // `closer` rather than by the test: the same outcome as testing block by block.
-            let blocks = &self.blocks[packed_blocks(leaf)];
-            let mut pairs = blocks.chunks_exact(2);
-            for pair in &mut pairs {
+            // Blocks two at a time (one 8-lane test where the CPU has AVX2), a leaf's last odd
+            // block with whatever block follows it, its lanes masked off: leaves of one, two,
+            // three blocks all run the same code, where a separate single-block test after the
+            // pairs was a branch the leaf's size decided (and mispredicted). A lane beyond a
+            // closer hit in the pair's first block is dropped by `closer` rather than by the
+            // test: the same outcome as testing block by block.
+            for (a, b, lanes) in self.block_pairs(leaf) {
                 obs.prim_tested();
-                obs.prim_tested();
+                if lanes == 0xff {
+                    obs.prim_tested();
+                }
                 // SAFETY: the caller vouches for T's CPU features.
-                let (mask, t, u, v) = unsafe { one.boxes.intersect_pair(one.lanes, &pair[0], &pair[1], t_min, *t_max) };
-                let hits = Hits { mask, t: &t, u: &u, v: &v };
-                hits.take(|lane| pair[lane / 4].slot[lane % 4], t_max, best);
-            }
-            for block in pairs.remainder() {
-                obs.prim_tested();
-                let (mask, t, u, v) = block.intersect(one.lanes, t_min, *t_max);
-                Hits { mask, t: &t, u: &u, v: &v }.take(|lane| block.slot[lane], t_max, best);
+                let (mask, t, u, v) = unsafe { one.boxes.intersect_pair(one.lanes, a, b, t_min, *t_max) };
+                let hits = Hits { mask: mask & lanes, t: &t, u: &u, v: &v };
+                hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
             }
         } else {
             let LeafRange { start, count } = self.ranges[(leaf & !LEAF_BIT) as usize];
@@ -911,19 +946,35 @@ where
             return unsafe { self.occluded_avx2(ray, prims) };
         }
         // SAFETY: the portable test needs no CPU feature.
-        unsafe { self.occluded_with::<PortableTest<W>, P>(ray, prims) }
+        unsafe {
+            if ray.t.min >= 0.0 {
+                self.occluded_with::<PortableTest<W>, P, true>(ray, prims)
+            } else {
+                self.occluded_with::<PortableTest<W>, P, false>(ray, prims)
+            }
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
         // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.occluded_with::<Avx2Test<W>, P>(ray, prims) }
+        unsafe {
+            if ray.t.min >= 0.0 {
+                self.occluded_with::<Avx2Test<W>, P, true>(ray, prims)
+            } else {
+                self.occluded_with::<Avx2Test<W>, P, false>(ray, prims)
+            }
+        }
     }
 
     /// The any-hit traversal with node test `T` (the CPU must have its features).
     #[inline(always)]
-    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+    ) -> bool {
         // SAFETY: the caller vouches for T's CPU features.
         let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
         let lanes = RayLanes::new(ray);
@@ -932,16 +983,11 @@ where
         let mut current = 0u32;
         loop {
             if is_packed(current) {
-                let blocks = &self.blocks[packed_blocks(current)];
-                let mut pairs = blocks.chunks_exact(2);
-                for pair in &mut pairs {
+                for (a, b, pair_lanes) in self.block_pairs(current) {
                     // SAFETY: as for `T::new`.
-                    if unsafe { boxes.intersect_pair(&lanes, &pair[0], &pair[1], t_min, t_max) }.0 != 0 {
+                    if unsafe { boxes.intersect_pair(&lanes, a, b, t_min, t_max) }.0 & pair_lanes != 0 {
                         return true;
                     }
-                }
-                if pairs.remainder().iter().any(|block| block.intersect(&lanes, t_min, t_max).0 != 0) {
-                    return true;
                 }
             } else if current & LEAF_BIT != 0 {
                 let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
@@ -953,7 +999,7 @@ where
             } else {
                 let node = &self.nodes[current as usize];
                 // SAFETY: as for `T::new`.
-                let (_, mut mask) = unsafe { boxes.test(node, t_min, t_max) };
+                let (_, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
                 if mask != 0 {
                     // Any order finds a blocker; the first hit child is visited next.
                     let first = mask.trailing_zeros() as usize;

@@ -88,12 +88,15 @@ impl Aabb {
     }
 }
 
-/// The reciprocal of a ray direction for slab tests, with zero components replaced by a tiny
-/// value of the same sign. A plain `1 / 0 = inf` would make `0 * inf = NaN` for a ray that
-/// starts on a slab plane, and SIMD min/max do not ignore NaN: the box would be missed.
+/// The reciprocal of a ray direction for slab tests, with components smaller than 2^-64
+/// (zero among them) replaced by 2^-64 of the same sign. A plain `1 / 0 = inf` would make
+/// `0 * inf = NaN` for a ray that starts on a slab plane, and SIMD min/max do not ignore NaN:
+/// the box would be missed. The replacement's inverse, 2^64, is a power of two, so the wide
+/// BVHs' fused slab test (`p * inv - o * inv`) computes `o * inv` exactly for such axes, and
+/// is small enough that `o * inv` cannot overflow for any origin within 10^19 of zero.
 #[inline(always)]
 pub fn safe_inv_dir(dir: Vec3A) -> Vec3A {
-    const TINY: f32 = 1e-30;
+    const TINY: f32 = 1.0 / 18_446_744_073_709_551_616.0; // 2^-64
     let mag = dir.abs().max(Vec3A::splat(TINY));
     Vec3A::ONE / Vec3A::select(dir.cmplt(Vec3A::ZERO), -mag, mag)
 }

@@ -1,0 +1,335 @@
+//! Collapsing the binary BVH into a wide one, choosing by the surface area heuristic which
+//! binary nodes become wide nodes, which subtrees become leaves, and which nodes disappear
+//! into their parents.
+//!
+//! A greedy collapse (each wide node opens its largest children until it has `W`) leaves
+//! many nodes half empty: a binary node whose two children are leaves becomes a wide node of
+//! two. Here a dynamic programme over the binary tree (Ylitie, Karras and Laine, "Efficient
+//! Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs", HPG 2017, section 4.1)
+//! finds, for every binary node and every number of slots `i <= W`, the cheapest way to hang
+//! its subtree from a parent as at most `i` children, each a wide node or a leaf holding a
+//! whole subtree's primitives. On the dragon it makes a third fewer nodes, most of them full.
+
+use super::wide::{
+    BLOCK_BITS, LEAF_BIT, Lanes, LeafRange, MAX_BLOCKS, NodeWidth, PACKED_BIT, SimdLevel, Tri4, WideBvh, WideNode,
+    is_packed,
+};
+use wide::f32x8;
+
+use super::{Bvh, Primitives};
+
+/// Binary trees with more nodes than this collapse on several threads.
+const PARALLEL_COLLAPSE: usize = 1 << 13;
+
+/// Cost of visiting a wide node, relative to one triangle test of a leaf (eight triangles,
+/// two [`Tri4`] blocks, in one AVX2 test; the same cost unit as the SAH build's).
+const NODE_COST: f32 = 1.5;
+
+/// Most triangles the collapse gathers into one leaf: four two-block tests.
+const LEAF_TRIANGLES: u32 = 16;
+
+/// Triangle tests of a packed leaf of `count` triangles: eight at a time.
+fn leaf_tests(count: u32) -> f32 {
+    count.div_ceil(8) as f32
+}
+
+/// A child of a wide node being made: a binary node, as a leaf of its whole subtree's
+/// primitives or as a wide node of its own.
+#[derive(Clone, Copy, Debug, Default)]
+struct Kid {
+    /// Index of the binary node.
+    bin: usize,
+    /// Whether its subtree becomes one leaf.
+    leaf: bool,
+}
+
+/// The collapse's decisions for one binary node.
+#[derive(Clone, Copy, Debug)]
+struct Decision<const W: usize> {
+    /// The least cost of the node's subtree hung from a parent as at most `i` children, at
+    /// index `i - 1`. Costs are surface areas times test counts, as in the SAH.
+    cost: [f32; W],
+    /// How that least cost is reached: at index 0 (one child), 1 if the subtree is a leaf and
+    /// 0 if it is a wide node; at index `i - 1 >= 1`, 0 if `i - 1` children do as well, else
+    /// the number of children given to the left subtree (the right one takes the rest).
+    choice: [u8; W],
+    /// For a node made a wide node: the number of its `W` slots given to the left subtree.
+    split: u8,
+    /// Whether the subtree holds only static triangles (packable into blocks); other leaves
+    /// are kept as the build made them.
+    packable: bool,
+    /// The primitive slots of the node's subtree (contiguous: the build partitions in place).
+    range: LeafRange,
+}
+
+/// For `j` in `1..=W` slots (at index `j - 1`), the least cost of a left subtree in `k` of
+/// them and a right one in `j - k`, and the least such `k` (`l` and `r` give each subtree's
+/// least cost in `i` slots at index `i - 1`). Every `k` at once for all `j`, eight lanes wide:
+/// this min-plus convolution is most of the collapse's planning.
+#[inline]
+fn best_splits<const W: usize>(l: &[f32; W], r: &[f32; W]) -> [(f32, u8); W] {
+    let mut best = [(f32::INFINITY, 0u8); W];
+    if W == 8 {
+        // Lane j - 1 of `shifted(k)` is r[j - k - 1], infinite where j <= k.
+        let mut padded = [f32::INFINITY; 16];
+        padded[8..].copy_from_slice(&r[..8]);
+        let shifted = |k: usize| f32x8::new(std::array::from_fn(|lane| padded[8 - k + lane]));
+        let (mut cost, mut split) = (f32x8::splat(f32::INFINITY), f32x8::ZERO);
+        for k in 1..8 {
+            let c = f32x8::splat(l[k - 1]) + shifted(k);
+            let better = c.simd_lt(cost);
+            cost = better.bitselect(c, cost);
+            split = better.bitselect(f32x8::splat(k as f32), split);
+        }
+        let (cost, split) = (cost.to_array(), split.to_array());
+        for j in 2..=W {
+            best[j - 1] = (cost[j - 1], split[j - 1] as u8);
+        }
+        return best;
+    }
+    for j in 2..=W {
+        for k in 1..j {
+            let c = l[k - 1] + r[j - k - 1];
+            if c < best[j - 1].0 {
+                best[j - 1] = (c, k as u8);
+            }
+        }
+    }
+    best
+}
+
+/// Subtrees with more binary nodes than this are planned on separate rayon tasks.
+const PARALLEL_PLAN: usize = 1 << 12;
+
+/// The collapse's decisions for every binary node.
+struct Plan<const W: usize> {
+    nodes: Vec<Decision<W>>,
+}
+
+impl<const W: usize> Plan<W> {
+    /// Decide for every node of `bin` (not empty), bottom-up, subtrees in parallel.
+    fn new<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
+        let empty = Decision { cost: [0.0; W], choice: [0; W], split: 0, packable: false, range: LeafRange::default() };
+        let mut nodes = vec![empty; bin.nodes.len()];
+        Self::subtree(bin, prims, 0, &mut nodes);
+        Plan { nodes }
+    }
+
+    /// Decide for the subtree of binary node `root`, whose nodes are `out` (in the binary
+    /// tree's depth-first order, a subtree is a contiguous run starting at its root).
+    fn subtree<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P, root: usize, out: &mut [Decision<W>]) {
+        let node = &bin.nodes[root];
+        if out.len() > PARALLEL_PLAN && !node.is_leaf() {
+            let right = node.start as usize - root;
+            let (this, children) = out.split_at_mut(1);
+            let (l, r) = children.split_at_mut(right - 1);
+            rayon::join(|| Self::subtree(bin, prims, root + 1, l), || Self::subtree(bin, prims, root + right, r));
+            this[0] = Self::decide(bin, prims, root, &l[0], &r[0]);
+            return;
+        }
+        // Children come after their parent: a backwards sweep meets them first.
+        for k in (0..out.len()).rev() {
+            let i = root + k;
+            let n = &bin.nodes[i];
+            out[k] = if n.is_leaf() {
+                Self::decide_leaf(bin, prims, i)
+            } else {
+                let (l, r) = (i + 1 - root, n.start as usize - root);
+                Self::decide(bin, prims, i, &out[l], &out[r])
+            };
+        }
+    }
+
+    /// A binary leaf stays a leaf.
+    fn decide_leaf<P: Primitives + ?Sized>(bin: &Bvh, prims: &P, i: usize) -> Decision<W> {
+        let node = &bin.nodes[i];
+        let (start, count) = (node.start, node.count);
+        let packable = (start..start + count).all(|s| prims.triangle(s).is_some());
+        let tests = if packable { leaf_tests(count) } else { count as f32 };
+        Decision {
+            cost: [node.bounds().half_area() * tests; W],
+            choice: [1; W],
+            split: 0,
+            packable,
+            range: LeafRange { start, count },
+        }
+    }
+
+    /// Interior node `i`, given its children's decisions.
+    fn decide<P: Primitives + ?Sized>(bin: &Bvh, _: &P, i: usize, l: &Decision<W>, r: &Decision<W>) -> Decision<W> {
+        let area = bin.nodes[i].bounds().half_area();
+        let count = l.range.count + r.range.count;
+        let packable = l.packable && r.packable;
+        let both = best_splits(&l.cost, &r.cost);
+        let as_node = area * NODE_COST + both[W - 1].0;
+        let as_leaf = if packable && count <= LEAF_TRIANGLES { area * leaf_tests(count) } else { f32::INFINITY };
+        let mut d = Decision {
+            cost: [0.0; W],
+            choice: [0; W],
+            split: both[W - 1].1,
+            packable,
+            range: LeafRange { start: l.range.start, count },
+        };
+        (d.cost[0], d.choice[0]) = if as_leaf <= as_node { (as_leaf, 1) } else { (as_node, 0) };
+        for j in 2..=W {
+            (d.cost[j - 1], d.choice[j - 1]) =
+                if both[j - 1].0 < d.cost[j - 2] { both[j - 1] } else { (d.cost[j - 2], 0) };
+        }
+        d
+    }
+
+    /// The primitive slots of binary node `i`'s subtree, and whether they are all static
+    /// triangles.
+    fn leaf(&self, i: usize) -> (LeafRange, bool) {
+        (self.nodes[i].range, self.nodes[i].packable)
+    }
+
+    /// The children of the wide node made for interior binary node `i`; returns them and
+    /// how many there are.
+    fn children(&self, bin: &Bvh, i: usize) -> ([Kid; W], usize) {
+        let mut kids = [Kid::default(); W];
+        let mut len = 0;
+        let k = self.nodes[i].split as usize;
+        self.gather(bin, i + 1, k, &mut kids, &mut len);
+        self.gather(bin, bin.nodes[i].start as usize, W - k, &mut kids, &mut len);
+        (kids, len)
+    }
+
+    /// Binary node `i`'s subtree as at most `slots` children, appended to `kids`.
+    fn gather(&self, bin: &Bvh, i: usize, slots: usize, kids: &mut [Kid; W], len: &mut usize) {
+        let node = &bin.nodes[i];
+        if slots == 1 || node.is_leaf() {
+            kids[*len] = Kid { bin: i, leaf: self.nodes[i].choice[0] == 1 };
+            *len += 1;
+            return;
+        }
+        match self.nodes[i].choice[slots - 1] as usize {
+            0 => self.gather(bin, i, slots - 1, kids, len),
+            k => {
+                self.gather(bin, i + 1, k, kids, len);
+                self.gather(bin, node.start as usize, slots - k, kids, len);
+            }
+        }
+    }
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W>,
+{
+    /// Collapse a binary BVH by the surface area heuristic (see the module documentation).
+    /// Leaves of static triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
+    pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
+        let mut out = WideBvh { simd: SimdLevel::detect(), ..WideBvh::default() };
+        let Some(root) = bin.nodes.first() else { return out };
+        out.nodes.push(WideNode::empty());
+        if root.is_leaf() {
+            let (start, count) = (root.start, root.count);
+            let packable = (start..start + count).all(|s| prims.triangle(s).is_some());
+            let r = out.leaf(prims, LeafRange { start, count }, packable);
+            out.nodes[0].set(0, &root.bounds(), r);
+            return out;
+        }
+        let plan = Plan::<W>::new(bin, prims);
+        if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << BLOCK_BITS {
+            out.fill(bin, &plan, prims, 0, 0);
+            return out;
+        }
+        // The root's subtrees collapse on separate tasks, then join the root's tree with
+        // their references moved past what is already there.
+        use rayon::prelude::*;
+        let (kids, len) = plan.children(bin, 0);
+        let parts: Vec<Option<WideBvh<W>>> = kids[..len]
+            .par_iter()
+            .map(|kid| {
+                (!kid.leaf).then(|| {
+                    let mut part = WideBvh { nodes: vec![WideNode::empty()], ..WideBvh::default() };
+                    part.fill(bin, &plan, prims, kid.bin, 0);
+                    part
+                })
+            })
+            .collect();
+        let mut top = WideNode::empty();
+        for (slot, (kid, part)) in kids[..len].iter().zip(parts).enumerate() {
+            let r = match part {
+                Some(part) => out.append(part),
+                None => {
+                    let (range, packable) = plan.leaf(kid.bin);
+                    out.leaf(prims, range, packable)
+                }
+            };
+            top.set(slot, &bin.nodes[kid.bin].bounds(), r);
+        }
+        out.nodes[0] = top;
+        out
+    }
+
+    /// Make the wide node at `at` for interior binary node `bin_index`, and its subtree.
+    fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, plan: &Plan<W>, prims: &P, bin_index: usize, at: usize) {
+        let (kids, len) = plan.children(bin, bin_index);
+        let mut wide = WideNode::empty();
+        let mut interior = [(0usize, 0usize); W];
+        let mut n_interior = 0;
+        for (slot, kid) in kids[..len].iter().enumerate() {
+            let child = &bin.nodes[kid.bin];
+            if kid.leaf {
+                let (range, packable) = plan.leaf(kid.bin);
+                let r = self.leaf(prims, range, packable);
+                wide.set(slot, &child.bounds(), r);
+            } else {
+                let idx = self.nodes.len();
+                self.nodes.push(WideNode::empty());
+                wide.set(slot, &child.bounds(), idx as u32);
+                interior[n_interior] = (kid.bin, idx);
+                n_interior += 1;
+            }
+        }
+        self.nodes[at] = wide;
+        for &(k, idx) in &interior[..n_interior] {
+            self.fill(bin, plan, prims, k, idx);
+        }
+    }
+
+    /// Add the nodes, blocks and ranges of `part` (a tree of its own, root at 0) after this
+    /// tree's, moving its references along; returns the reference to its root.
+    fn append(&mut self, part: WideBvh<W>) -> u32 {
+        let (nodes, blocks, ranges) = (self.nodes.len() as u32, self.blocks.len() as u32, self.ranges.len() as u32);
+        let moved = |c: u32| {
+            if c == super::wide::EMPTY {
+                c
+            } else if is_packed(c) {
+                // The caller checked that every block index fits in BLOCK_BITS.
+                c + blocks
+            } else if c & LEAF_BIT != 0 {
+                c + ranges
+            } else {
+                c + nodes
+            }
+        };
+        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
+            n.child = n.child.map(moved);
+            n
+        }));
+        self.blocks.extend(part.blocks);
+        self.ranges.extend(part.ranges);
+        nodes
+    }
+
+    /// A leaf reference for the slots of `range`: packed blocks when they are all static
+    /// triangles (`packable`) and few enough, else a range.
+    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, range: LeafRange, packable: bool) -> u32 {
+        let LeafRange { start, count } = range;
+        if packable && count.div_ceil(4) <= MAX_BLOCKS && (self.blocks.len() as u32) < (1 << BLOCK_BITS) {
+            let first = self.blocks.len() as u32;
+            for chunk in (start..start + count).step_by(4) {
+                let end = (chunk + 4).min(start + count);
+                self.blocks.push(Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t)))));
+            }
+            let n = self.blocks.len() as u32 - first;
+            LEAF_BIT | PACKED_BIT | ((n - 1) << BLOCK_BITS) | first
+        } else {
+            self.ranges.push(range);
+            LEAF_BIT | (self.ranges.len() as u32 - 1)
+        }
+    }
+}
