@@ -484,3 +484,123 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
         assert!(hits > 100, "{name}: {hits} hits");
     }
 }
+
+/// A random wide node: boxes around the origin, some slots empty (at +inf, as the collapse
+/// leaves them), some flat, some touching the ray origins' planes.
+fn random_node(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<8> {
+    let mut n = rayscope::bvh::wide::WideNode { bounds: [[f32::INFINITY; 8]; 6], child: [u32::MAX; 8] };
+    for i in 0..8 {
+        if rng.f32() < 0.15 {
+            continue;
+        }
+        let (a, b) = (rng.vec3(-1.0, 1.0), rng.vec3(-1.0, 1.0));
+        let (mut lo, hi) = (a.min(b), a.max(b));
+        if rng.f32() < 0.1 {
+            lo.x = hi.x;
+        }
+        for axis in 0..3 {
+            n.bounds[axis][i] = lo[axis];
+            n.bounds[axis + 3][i] = hi[axis];
+        }
+        n.child[i] = i as u32;
+    }
+    n
+}
+
+/// The slab test gives the same bits on the AVX2 path as on the portable one (entry distances
+/// and hit masks), for rays (integer order) and lines (float order), rays parallel to an axis
+/// and origins on box planes among them; and it agrees with the scalar box test.
+#[test]
+fn slab_test_is_the_same_on_every_path() {
+    use rayscope::bvh::wide::{NodeTest, Portable8, SimdLevel};
+    use rayscope::geometry::aabb::safe_inv_dir;
+    let mut rng = Rng(77);
+    let mut hits = 0;
+    for _ in 0..3000 {
+        let node = random_node(&mut rng);
+        let mut ray = Ray::new(rng.vec3(-1.5, 1.5), rng.dir());
+        match rng.next_u64() % 6 {
+            0 => ray.dir = Vec3A::new(0.0, ray.dir.y, ray.dir.z).normalize(),
+            1 => ray.origin.x = node.bounds[0][0],
+            2 => ray.t.min = -rng.range(0.0, 2.0),
+            3 => ray.t.max = rng.range(0.0, 1.0),
+            _ => {}
+        }
+        let inv = safe_inv_dir(ray.dir);
+        let (t_min, t_max) = (ray.t.min, ray.t.max);
+        // SAFETY: the portable test needs no CPU feature.
+        let portable = unsafe {
+            let p = <Portable8 as NodeTest<8>>::new(&ray, inv);
+            if t_min >= 0.0 { p.test::<true>(&node, t_min, t_max) } else { p.test::<false>(&node, t_min, t_max) }
+        };
+        #[cfg(target_arch = "x86_64")]
+        if SimdLevel::detect() == SimdLevel::Avx2 {
+            use rayscope::bvh::wide::Avx2Node8;
+            // SAFETY: the CPU has AVX2 and FMA (just checked); the test inlines into this
+            // function's code, which is what the traversal's AVX2 variant compiles.
+            let avx2 = unsafe {
+                let a = <Avx2Node8 as NodeTest<8>>::new(&ray, inv);
+                if t_min >= 0.0 { a.test::<true>(&node, t_min, t_max) } else { a.test::<false>(&node, t_min, t_max) }
+            };
+            assert_eq!(portable.1, avx2.1, "masks differ for {ray:?}");
+            for i in 0..8 {
+                if portable.1 & 1 << i != 0 {
+                    assert_eq!(portable.0[i].to_bits(), avx2.0[i].to_bits(), "entry distances differ for {ray:?}");
+                }
+            }
+        }
+        // Against the scalar test (float arithmetic): the same boxes, up to rays that graze a
+        // box within rounding.
+        for i in 0..8 {
+            if node.child[i] == u32::MAX {
+                assert_eq!(portable.1 & 1 << i, 0, "an empty slot was hit by {ray:?}");
+                continue;
+            }
+            let b = node.child_bounds(i);
+            let scalar = b.hit_distance(ray.origin, inv, t_min, t_max);
+            if portable.1 & 1 << i != 0 {
+                hits += 1;
+                assert!((portable.0[i] - scalar).abs() <= 1e-4 * (1.0 + scalar.abs()) || scalar == f32::INFINITY);
+            }
+        }
+    }
+    assert!(hits > 500, "the random boxes are hit often enough to test something ({hits})");
+}
+
+/// The inverse of a zero direction component is a power of two, so that `o * inv` is exact.
+#[test]
+fn zero_direction_components_invert_to_a_power_of_two() {
+    use rayscope::geometry::aabb::safe_inv_dir;
+    let inv = safe_inv_dir(Vec3A::new(0.0, -1e-30, 1e-30));
+    assert_eq!(inv.x, 2f32.powi(64));
+    assert_eq!(inv.y, -(2f32.powi(64)));
+    assert_eq!(inv.z, 2f32.powi(64));
+    let o = 0.3f32;
+    assert_eq!((o * inv.x) / inv.x, o);
+}
+
+/// The SAH collapse fills nodes (a greedy one left a third of the dragon's nodes with two
+/// children) and keeps leaves within 16 triangles.
+#[test]
+fn collapse_fills_wide_nodes() {
+    let mut rng = Rng(31);
+    let shapes: Vec<Shape> =
+        random_soup(&mut rng, 5000, 0.05).into_iter().filter(|s| matches!(s, Shape::Triangle(_))).collect();
+    let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    let prims = Ordered { shapes: &shapes, bvh: &bvh };
+    let wide = Bvh8::from_binary(&bvh, &prims);
+    wide.validate(&bvh, &bounds).unwrap();
+    let children: usize = wide.nodes.iter().map(|n| n.child.iter().filter(|&&c| c != u32::MAX).count()).sum();
+    let mean = children as f32 / wide.nodes.len() as f32;
+    assert!(mean >= 6.0, "mean children per node {mean}");
+    assert!(wide.ranges.is_empty(), "every leaf of triangles is packed");
+    for n in &wide.nodes {
+        for &c in &n.child {
+            if c != u32::MAX && c & 1 << 31 != 0 {
+                let blocks = ((c >> 26) & 0xf) + 1;
+                assert!(blocks <= 4, "a leaf of {blocks} blocks");
+            }
+        }
+    }
+}

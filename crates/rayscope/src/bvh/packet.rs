@@ -9,7 +9,7 @@
 //! packet by the smallest and largest inverse direction, so a child the packet test rejects is
 //! missed by every ray. A leaf's box is then tested per ray, exactly as the single-ray
 //! traversal tests it, and only the rays that hit it intersect its triangles, each with the
-//! single-ray leaf code ([`WideBvh::leaf_closest`]).
+//! single-ray leaf code (`WideBvh::leaf_closest`).
 //!
 //! Each ray's closest hit is the one the single-ray traversal reports, bit for bit: the packet
 //! may visit more inner nodes than a ray would (never fewer), leaves are culled by the same
