@@ -248,8 +248,8 @@ pub struct WideBvh<const W: usize> {
     /// The other leaves (spheres, moving shapes, mixes, oversized leaves): slot ranges whose
     /// primitives are intersected one by one through [`Primitives`].
     pub ranges: Vec<LeafRange>,
-    /// The traversal variant: [`SimdLevel::detect`] when built. Private so that it can only
-    /// name a level the CPU has; [`WideBvh::portable`] selects the baseline.
+    /// The traversal variant: [`SimdLevel::detect`] when built. Private to the BVH module so
+    /// that it can only name a level the CPU has; [`WideBvh::portable`] selects the baseline.
     pub(super) simd: SimdLevel,
 }
 
@@ -413,7 +413,7 @@ pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
 #[inline(always)]
 pub(super) fn fused_mul_sub<const N: usize, V>(a: V, b: V, c: V) -> V
 where
-    V: Copy + Lanes8<N>,
+    V: Copy + FloatLanes<N>,
 {
     if cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon"))) {
         a.mul_sub_fused(b, c)
@@ -424,7 +424,7 @@ where
 }
 
 /// The `wide` vector types the portable tests use, as arrays of lanes.
-pub(super) trait Lanes8<const N: usize> {
+pub(super) trait FloatLanes<const N: usize> {
     /// `self * b - c`, fused where `wide` fuses it.
     fn mul_sub_fused(self, b: Self, c: Self) -> Self;
     /// The lanes.
@@ -435,7 +435,7 @@ pub(super) trait Lanes8<const N: usize> {
 
 macro_rules! lanes_impl {
     ($v:ty, $n:literal) => {
-        impl Lanes8<$n> for $v {
+        impl FloatLanes<$n> for $v {
             #[inline(always)]
             fn mul_sub_fused(self, b: Self, c: Self) -> Self {
                 self.mul_sub(b, c)
@@ -693,7 +693,8 @@ where
     }
 
     /// Ask for a child's memory as soon as its box is hit, so that the loads overlap the
-    /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic).
+    /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic): a
+    /// node's four lines, or a packed leaf's first pair of blocks (five lines).
     #[inline(always)]
     pub(super) fn prefetch(&self, child: u32) {
         #[cfg(target_arch = "x86_64")]
@@ -715,8 +716,8 @@ where
         let _ = child;
     }
 
-    /// [`WideBvh::prefetch`] choosing the address without branches: the first lines of a
-    /// node or of a packed leaf's blocks (of the first node for a range leaf or an empty slot).
+    /// [`WideBvh::prefetch`] choosing the address without branches: the four lines of a node
+    /// or the first four of a packed leaf's blocks (of the first node for a range leaf).
     #[inline(always)]
     pub(super) fn prefetch_branchless(&self, child: u32) {
         #[cfg(target_arch = "x86_64")]
