@@ -124,7 +124,7 @@ impl<const W: usize> Plan<W> {
             let (this, children) = out.split_at_mut(1);
             let (l, r) = children.split_at_mut(right - 1);
             rayon::join(|| Self::subtree(bin, prims, root + 1, l), || Self::subtree(bin, prims, root + right, r));
-            this[0] = Self::decide(bin, prims, root, &l[0], &r[0]);
+            this[0] = Self::decide(bin, root, &l[0], &r[0]);
             return;
         }
         // Children come after their parent: a backwards sweep meets them first.
@@ -135,7 +135,7 @@ impl<const W: usize> Plan<W> {
                 Self::decide_leaf(bin, prims, i)
             } else {
                 let (l, r) = (i + 1 - root, n.start as usize - root);
-                Self::decide(bin, prims, i, &out[l], &out[r])
+                Self::decide(bin, i, &out[l], &out[r])
             };
         }
     }
@@ -156,7 +156,7 @@ impl<const W: usize> Plan<W> {
     }
 
     /// Interior node `i`, given its children's decisions.
-    fn decide<P: Primitives + ?Sized>(bin: &Bvh, _: &P, i: usize, l: &Decision<W>, r: &Decision<W>) -> Decision<W> {
+    fn decide(bin: &Bvh, i: usize, l: &Decision<W>, r: &Decision<W>) -> Decision<W> {
         let area = bin.nodes[i].bounds().half_area();
         let count = l.range.count + r.range.count;
         let packable = l.packable && r.packable;
