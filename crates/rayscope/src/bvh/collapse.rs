@@ -8,7 +8,7 @@
 //! Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs", HPG 2017, section 4.1)
 //! finds, for every binary node and every number of slots `i <= W`, the cheapest way to hang
 //! its subtree from a parent as at most `i` children, each a wide node or a leaf holding a
-//! whole subtree's primitives. On the dragon it makes a third fewer nodes, most of them full.
+//! whole subtree's primitives. On the dragon it makes half as many nodes, most of them full.
 
 use super::wide::{
     BLOCK_BITS, LEAF_BIT, Lanes, LeafRange, MAX_BLOCKS, NodeWidth, PACKED_BIT, SimdLevel, Tri4, WideBvh, WideNode,
