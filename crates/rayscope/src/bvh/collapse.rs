@@ -178,12 +178,6 @@ impl<const W: usize> Plan<W> {
         d
     }
 
-    /// The primitive slots of binary node `i`'s subtree, and whether they are all static
-    /// triangles.
-    fn leaf(&self, i: usize) -> (LeafRange, bool) {
-        (self.nodes[i].range, self.nodes[i].packable)
-    }
-
     /// The children of the wide node made for interior binary node `i`; returns them and
     /// how many there are.
     fn children(&self, bin: &Bvh, i: usize) -> ([Kid; W], usize) {
@@ -224,9 +218,7 @@ where
         let Some(root) = bin.nodes.first() else { return out };
         out.nodes.push(WideNode::empty());
         if root.is_leaf() {
-            let (start, count) = (root.start, root.count);
-            let packable = (start..start + count).all(|s| prims.triangle(s).is_some());
-            let r = out.leaf(prims, LeafRange { start, count }, packable);
+            let r = out.leaf(prims, &Plan::<W>::decide_leaf(bin, prims, 0));
             out.nodes[0].set(0, &root.bounds(), r);
             return out;
         }
@@ -253,10 +245,7 @@ where
         for (slot, (kid, part)) in kids[..len].iter().zip(parts).enumerate() {
             let r = match part {
                 Some(part) => out.append(part),
-                None => {
-                    let (range, packable) = plan.leaf(kid.bin);
-                    out.leaf(prims, range, packable)
-                }
+                None => out.leaf(prims, &plan.nodes[kid.bin]),
             };
             top.set(slot, &bin.nodes[kid.bin].bounds(), r);
         }
@@ -273,8 +262,7 @@ where
         for (slot, kid) in kids[..len].iter().enumerate() {
             let child = &bin.nodes[kid.bin];
             if kid.leaf {
-                let (range, packable) = plan.leaf(kid.bin);
-                let r = self.leaf(prims, range, packable);
+                let r = self.leaf(prims, &plan.nodes[kid.bin]);
                 wide.set(slot, &child.bounds(), r);
             } else {
                 let idx = self.nodes.len();
@@ -315,9 +303,10 @@ where
         nodes
     }
 
-    /// A leaf reference for the slots of `range`: packed blocks when they are all static
-    /// triangles (`packable`) and few enough, else a range.
-    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, range: LeafRange, packable: bool) -> u32 {
+    /// A leaf reference for the subtree that `d` decided on: packed blocks when its slots are
+    /// all static triangles and few enough, else a range.
+    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, d: &Decision<W>) -> u32 {
+        let (range, packable) = (d.range, d.packable);
         let LeafRange { start, count } = range;
         if packable && count.div_ceil(4) <= MAX_BLOCKS && (self.blocks.len() as u32) < (1 << BLOCK_BITS) {
             let first = self.blocks.len() as u32;

@@ -776,13 +776,7 @@ where
             return unsafe { self.intersect_avx2(ray, prims, obs) };
         }
         // SAFETY: the portable test needs no CPU feature.
-        unsafe {
-            if ray.t.min >= 0.0 {
-                self.intersect_with::<PortableTest<W>, P, O, true>(ray, prims, obs)
-            } else {
-                self.intersect_with::<PortableTest<W>, P, O, false>(ray, prims, obs)
-            }
-        }
+        unsafe { self.intersect_with::<PortableTest<W>, P, O>(ray, prims, obs) }
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -794,18 +788,31 @@ where
         obs: &mut O,
     ) -> Option<BvhHit> {
         // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.intersect_with::<Avx2Test<W>, P, O>(ray, prims, obs) }
+    }
+
+    /// The closest-hit traversal with node test `T` (the CPU must have its features),
+    /// compiled once for each order of the slab test and chosen per ray.
+    #[inline(always)]
+    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: the caller vouches for T's CPU features.
         unsafe {
             if ray.t.min >= 0.0 {
-                self.intersect_with::<Avx2Test<W>, P, O, true>(ray, prims, obs)
+                self.closest::<T, P, O, true>(ray, prims, obs)
             } else {
-                self.intersect_with::<Avx2Test<W>, P, O, false>(ray, prims, obs)
+                self.closest::<T, P, O, false>(ray, prims, obs)
             }
         }
     }
 
-    /// The closest-hit traversal with node test `T` (the CPU must have its features).
+    /// [`WideBvh::intersect_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
     #[inline(always)]
-    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
+    unsafe fn closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
         &self,
         ray: &Ray,
         prims: &P,
@@ -940,35 +947,29 @@ where
             return unsafe { self.occluded_avx2(ray, prims) };
         }
         // SAFETY: the portable test needs no CPU feature.
-        unsafe {
-            if ray.t.min >= 0.0 {
-                self.occluded_with::<PortableTest<W>, P, true>(ray, prims)
-            } else {
-                self.occluded_with::<PortableTest<W>, P, false>(ray, prims)
-            }
-        }
+        unsafe { self.occluded_with::<PortableTest<W>, P>(ray, prims) }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
         // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.occluded_with::<Avx2Test<W>, P>(ray, prims) }
+    }
+
+    /// The any-hit traversal with node test `T` (the CPU must have its features), compiled
+    /// once for each order of the slab test and chosen per ray.
+    #[inline(always)]
+    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: the caller vouches for T's CPU features.
         unsafe {
-            if ray.t.min >= 0.0 {
-                self.occluded_with::<Avx2Test<W>, P, true>(ray, prims)
-            } else {
-                self.occluded_with::<Avx2Test<W>, P, false>(ray, prims)
-            }
+            if ray.t.min >= 0.0 { self.any::<T, P, true>(ray, prims) } else { self.any::<T, P, false>(ray, prims) }
         }
     }
 
-    /// The any-hit traversal with node test `T` (the CPU must have its features).
+    /// [`WideBvh::occluded_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
     #[inline(always)]
-    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(
-        &self,
-        ray: &Ray,
-        prims: &P,
-    ) -> bool {
+    unsafe fn any<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(&self, ray: &Ray, prims: &P) -> bool {
         // SAFETY: the caller vouches for T's CPU features.
         let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
         let lanes = RayLanes::new(ray);
