@@ -312,7 +312,7 @@ fn main() {
             let mut disagree = 0usize;
             for (rays, coherent) in [(&cam, true), (&inc, false)] {
                 for r in rays.iter() {
-                    let a = scene.intersect(r).map(|h| (h.prim, h.t));
+                    let a = scene.intersect(r).map(|h| (scene.prim_id(&h), h.t));
                     let b = emb.intersect(r, coherent);
                     let same = match (a, b) {
                         (None, None) => true,

@@ -99,7 +99,7 @@ impl<'a> Integrator<'a> {
                     ctx.recorder.hit(Some(RecordedHit {
                         t: hit.t,
                         point: si.point.to_array(),
-                        prim: hit.prim,
+                        prim: self.scene.prim_id(&hit),
                         material: si.material,
                         geo_normal: si.geo_normal.to_array(),
                         shading_normal: si.shading_normal.to_array(),

@@ -475,7 +475,7 @@ pub fn render_aov(
             (Aov::Depth, None) => nan,
             (Aov::Depth, Some(h)) => [h.t, 0.0, 0.0],
             (Aov::PrimId, None) => [-1.0, 0.0, 0.0],
-            (Aov::PrimId, Some(h)) => [h.prim as f32, 0.0, 0.0],
+            (Aov::PrimId, Some(h)) => [scene.prim_id(&h) as f32, 0.0, 0.0],
             (Aov::Position, None) => nan,
             (Aov::Normal | Aov::Albedo, None) => [0.0; 3],
             (_, Some(h)) => {

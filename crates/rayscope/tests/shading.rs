@@ -233,7 +233,7 @@ fn spawned_rays_never_rehit_their_surface() {
                 let d = rng.dir();
                 let r = Ray::spawn(si.point, si.geo_normal, d, 0.0);
                 if let Some(h2) = scene.intersect(&r) {
-                    assert!(h2.prim != hit.prim, "scale {scale}: re-hit own triangle at t = {}", h2.t);
+                    assert!(h2.slot != hit.slot, "scale {scale}: re-hit own triangle at t = {}", h2.t);
                 }
             }
             let target = si.point + si.geo_normal * (0.05 * scale);

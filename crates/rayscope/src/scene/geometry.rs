@@ -160,20 +160,20 @@ impl Geometry {
     #[inline]
     pub fn intersect<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         let hit = self.wide.intersect_counted(ray, self, stats);
-        self.global_hit(hit)
+        self.scene_hit(hit)
     }
 
     /// Closest hits of up to [`PACKET`] rays, traced together when they share an origin
     /// (see [`crate::bvh::packet`]); each is what [`Geometry::intersect`] gives.
     #[inline]
     pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; PACKET] {
-        self.wide.intersect_packet(rays, self).map(|h| self.global_hit(h))
+        self.wide.intersect_packet(rays, self).map(|h| self.scene_hit(h))
     }
 
     /// Closest hit through the binary BVH (for the debugger, whose views show its nodes).
     pub fn intersect_binary<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         let hit = self.bvh.intersect_counted(ray, self, stats);
-        self.global_hit(hit)
+        self.scene_hit(hit)
     }
 
     /// Whether anything blocks `ray` (through the 8-wide BVH).
@@ -195,15 +195,15 @@ impl Geometry {
         self.wide.occluded_among(ray, self, occ)
     }
 
+    /// The global primitive id in BVH slot `slot`.
     #[inline]
-    fn global_hit(&self, hit: Option<crate::bvh::BvhHit>) -> Option<Hit> {
-        hit.map(|h| Hit {
-            t: h.hit.t,
-            prim: self.bvh.prim_indices[h.slot as usize],
-            slot: h.slot,
-            u: h.hit.u,
-            v: h.hit.v,
-        })
+    pub fn prim_id(&self, slot: u32) -> u32 {
+        self.bvh.prim_indices[slot as usize]
+    }
+
+    #[inline]
+    fn scene_hit(&self, hit: Option<crate::bvh::BvhHit>) -> Option<Hit> {
+        hit.map(|h| Hit { t: h.hit.t, slot: h.slot, u: h.hit.u, v: h.hit.v })
     }
 }
 
