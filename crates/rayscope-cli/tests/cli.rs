@@ -114,7 +114,7 @@ fn bad_input_gives_clear_errors() {
     fails_with(d, &["render", "bad.obj", "-o", "o.png"], &["bad.obj:4", "out of range"]);
     fails_with(d, &["render", "nan.obj", "-o", "o.png"], &["nan.obj:2"]);
     fails_with(d, &["render", "mesh.toml", "-o", "o.png"], &["bad.obj:4"]);
-    fails_with(d, &["render", "bad.toml", "-o", "o.png"], &["bad.toml:2", "expected a sequence of 3"]);
+    fails_with(d, &["render", "bad.toml", "-o", "o.png"], &["bad.toml:4", "expected a sequence of 3"]);
     fails_with(d, &["render", "unknown.toml", "-o", "o.png"], &["unknown.toml:2", "widht"]);
     fails_with(d, &["render", "missing.toml", "-o", "o.png"], &["missing.toml"]);
     fails_with(d, &["render", "no-such-scene", "-o", "o.png"], &["unknown scene", "cornell-box"]);

@@ -189,21 +189,8 @@ impl SceneDesc {
     /// Parse a TOML scene file's text; errors name `path` and the line.
     pub fn from_toml(text: &str, path: &Path) -> Result<SceneDesc> {
         toml::from_str(text).map_err(|e| {
-            let start = e.span().map_or(0, |s| s.start.min(text.len()));
-            let line_of = |offset: usize| text[..offset].matches('\n').count() + 1;
-            let mut line = e.span().map(|_| line_of(start));
-            // Tagged tables (camera, lights) are buffered before serde sees their fields, so
-            // the span covers the whole table; point at the offending key instead.
-            if let Some(key) = e.message().strip_prefix("unknown field `").and_then(|m| m.split('`').next()) {
-                let mut offset = start;
-                for l in text[start..].split_inclusive('\n') {
-                    if l.trim_start().strip_prefix(key).is_some_and(|r| r.trim_start().starts_with('=')) {
-                        line = Some(line_of(offset));
-                        break;
-                    }
-                    offset += l.len();
-                }
-            }
+            let span = e.span().map(|s| s.start.min(text.len())..s.end.min(text.len()));
+            let line = span.clone().map(|s| culprit_line(text, s, e.message()));
             Error::parse(path, line, e.message().to_string())
         })
     }
@@ -502,6 +489,58 @@ impl Placement {
     }
 }
 
+/// 1-based line of byte `offset` in `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset].matches('\n').count() + 1
+}
+
+/// The line to report for a parse error `message` whose span is `span`: its first line,
+/// except in the tagged tables (camera, lights), which serde buffers before it sees their
+/// fields, so that the span is the table's header. There the offending key is found in the
+/// table's body: the one named by an unknown-field message, or else the one whose removal
+/// makes the error go away or turn into that key missing (a value of the wrong type).
+fn culprit_line(text: &str, span: std::ops::Range<usize>, message: &str) -> usize {
+    let first = line_of(text, span.start);
+    if !text[span.clone()].starts_with('[') {
+        return first;
+    }
+    // The body: from the header to the next header (or the end).
+    let mut end = span.end;
+    for l in text[span.end..].split_inclusive('\n') {
+        if l.trim_start().starts_with('[') && end > span.end {
+            break;
+        }
+        end += l.len();
+    }
+    let span = span.start..end;
+    let unknown = message.strip_prefix("unknown field `").and_then(|m| m.split('`').next());
+    let mut offset = span.start;
+    for l in text[span.clone()].split_inclusive('\n') {
+        let key = l
+            .split_once('=')
+            .map(|(k, _)| k.trim())
+            .filter(|k| !k.is_empty() && k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'));
+        if let Some(key) = key {
+            let culprit = match unknown {
+                Some(u) => key == u,
+                None if key == "kind" => false,
+                None => {
+                    let without = [&text[..offset], &text[offset + l.len()..]].concat();
+                    match toml::from_str::<SceneDesc>(&without) {
+                        Ok(_) => true,
+                        Err(e) => e.message() == format!("missing field `{key}`"),
+                    }
+                }
+            };
+            if culprit {
+                return line_of(text, offset);
+            }
+        }
+        offset += l.len();
+    }
+    first
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -515,6 +554,21 @@ mod tests {
                 assert!(message.contains("fovv"), "{message}");
             }
             other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn bad_values_in_tagged_tables_name_their_line() {
+        let cases = [
+            ("name = \"x\"\n[camera]\nkind = \"trackball\"\nfov = \"wide\"\ndistance = 3\n", 4),
+            ("[[light]]\nkind = \"point\"\ncolor = [1, 1, 1]\nposition = [0, \"up\", 0]\n", 4),
+            ("[[light]]\nkind = \"point\"\nposition = [0, 1, 0]\ncolor = [1, 1]\n\n[[light]]\nkind = \"point\"\n", 4),
+        ];
+        for (text, want) in cases {
+            match SceneDesc::from_toml(text, Path::new("s.toml")) {
+                Err(Error::Parse { line, message, .. }) => assert_eq!(line, Some(want), "{message}\n{text}"),
+                other => panic!("{other:?}"),
+            }
         }
     }
 
