@@ -15,8 +15,8 @@ use rayscope::render::RenderSettings;
 use rayscope::scene::builtin;
 
 use crate::files::{BrowserAction, FileBrowser};
-use crate::preview::Preview;
-use crate::state::{ModeChoice, ViewKind, ViewerState};
+use crate::preview::{LineVertex, Preview};
+use crate::state::{ModeChoice, OverlayKey, ViewKind, ViewerState};
 use crate::worker::{FrameImage, RenderJob, Worker};
 
 /// How the viewer starts.
@@ -98,6 +98,9 @@ pub struct RayscopeApp {
     /// The rectangle of the viewport image in the last frame (points).
     pub image_rect: Option<Rect>,
     watched: Option<(PathBuf, Option<std::time::SystemTime>)>,
+    /// The overlay's lines, what they were made from, and a number that changes with them
+    /// (so that the preview uploads them again only then).
+    overlay: Option<(OverlayKey, u64, Vec<LineVertex>)>,
     last_watch: Option<Instant>,
 }
 
@@ -146,6 +149,7 @@ impl RayscopeApp {
             status: String::new(),
             image_rect: None,
             watched: None,
+            overlay: None,
             last_watch: None,
         }
     }
@@ -433,9 +437,15 @@ impl RayscopeApp {
                 (Some(preview), Some(rs)) => {
                     let ppp = ui.ctx().pixels_per_point();
                     let size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
-                    let lines = self.state.overlay_lines();
+                    let overlay = self.state.overlay_key();
+                    if self.overlay.as_ref().is_none_or(|(k, ..)| *k != overlay) {
+                        let version = self.overlay.as_ref().map_or(0, |(_, v, _)| v + 1);
+                        self.overlay = Some((overlay, version, self.state.overlay_lines()));
+                    }
+                    let (_, version, lines) = self.overlay.as_ref().expect("made above");
                     let key = Arc::as_ptr(&self.state.scene) as usize;
-                    let id = preview.render(rs, &self.state.scene, key, &self.state.trackball.camera(), size, &lines);
+                    let camera = self.state.trackball.camera();
+                    let id = preview.render(rs, &self.state.scene, key, &camera, size, (lines, *version));
                     painter.image(id, rect, uv, Color32::WHITE);
                 }
                 _ => {

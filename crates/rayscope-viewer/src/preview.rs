@@ -106,7 +106,9 @@ pub struct Preview {
     uniforms: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     mesh: Option<(wgpu::Buffer, u32, usize)>,
-    lines: Option<(wgpu::Buffer, u32)>,
+    /// The overlay's vertex buffer (none when there are no lines), its vertex count and the
+    /// version of the lines it holds.
+    lines: Option<(Option<wgpu::Buffer>, u32, u64)>,
     target: Option<Target>,
 }
 
@@ -277,8 +279,9 @@ impl Preview {
         Preview { mesh_pipeline, line_pipeline, uniforms, bind_group, mesh: None, lines: None, target: None }
     }
 
-    /// Draw `scene` (identified by `scene_key`, so its vertices upload once) and `lines` as
-    /// seen by `camera` into a `size`-pixel texture, and return its egui texture id.
+    /// Draw `scene` (identified by `scene_key`, so its vertices upload once) and `lines` (with
+    /// a version number, so that they upload again only when it changes) as seen by `camera`
+    /// into a `size`-pixel texture, and return its egui texture id.
     pub fn render(
         &mut self,
         rs: &egui_wgpu::RenderState,
@@ -286,7 +289,7 @@ impl Preview {
         scene_key: usize,
         camera: &Camera,
         size: [u32; 2],
-        lines: &[LineVertex],
+        (lines, version): (&[LineVertex], u64),
     ) -> egui::TextureId {
         use wgpu::util::DeviceExt;
         let device = &rs.device;
@@ -304,14 +307,16 @@ impl Preview {
             });
             self.mesh = Some((buf, v.len() as u32, scene_key));
         }
-        self.lines = (!lines.is_empty()).then(|| {
-            let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("rayscope preview lines"),
-                contents: bytemuck::cast_slice(lines),
-                usage: wgpu::BufferUsages::VERTEX,
+        if self.lines.as_ref().is_none_or(|l| l.2 != version) {
+            let buf = (!lines.is_empty()).then(|| {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("rayscope preview lines"),
+                    contents: bytemuck::cast_slice(lines),
+                    usage: wgpu::BufferUsages::VERTEX,
+                })
             });
-            (buf, lines.len() as u32)
-        });
+            self.lines = Some((buf, lines.len() as u32, version));
+        }
         let (near, far) = depth_range(scene, camera);
         let u = Uniforms {
             view_proj: view_projection(camera, size[0] as f32 / size[1] as f32, near, far).to_cols_array_2d(),
@@ -348,7 +353,7 @@ impl Preview {
                 pass.set_vertex_buffer(0, buf.slice(..));
                 pass.draw(0..*n, 0..1);
             }
-            if let Some((buf, n)) = &self.lines {
+            if let Some((Some(buf), n, _)) = &self.lines {
                 pass.set_pipeline(&self.line_pipeline);
                 pass.set_vertex_buffer(0, buf.slice(..));
                 pass.draw(0..*n, 0..1);

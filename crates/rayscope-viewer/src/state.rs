@@ -51,6 +51,20 @@ pub struct Selection {
     pub color: Vec3,
     /// BVH nodes the camera ray entered.
     pub visited: Vec<u32>,
+    /// Distinguishes this selection from every other one (for [`OverlayKey`]).
+    pub id: u64,
+}
+
+/// What [`ViewerState::overlay_lines`] depends on: while it is the same, so are the lines,
+/// and the viewer draws the ones it made (and uploaded) before instead of making them for
+/// every frame, which the deep BVH levels of a large mesh made slow.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OverlayKey {
+    scene: usize,
+    bvh_level: Option<u32>,
+    bvh_only_visited: bool,
+    show_light_samples: bool,
+    selection: Option<u64>,
 }
 
 /// Everything the viewer shows and edits.
@@ -237,7 +251,9 @@ impl ViewerState {
             }
             None => Vec::new(),
         };
-        self.selection = Some(Selection { pixel: (x, y), tree, color, visited });
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.selection = Some(Selection { pixel: (x, y), tree, color, visited, id });
     }
 
     /// Re-trace the selected pixel (after a settings change); the camera it was traced with is
@@ -255,6 +271,17 @@ impl ViewerState {
             let b = n.bounds();
             ((b.max - b.min).length() * 0.5).max(1e-3)
         })
+    }
+
+    /// What the overlay's lines depend on.
+    pub fn overlay_key(&self) -> OverlayKey {
+        OverlayKey {
+            scene: Arc::as_ptr(&self.scene) as usize,
+            bvh_level: self.bvh_level,
+            bvh_only_visited: self.bvh_only_visited,
+            show_light_samples: self.show_light_samples,
+            selection: self.selection.as_ref().map(|s| s.id),
+        }
     }
 
     /// Every line the debugger draws over the rasterized scene.
@@ -505,6 +532,32 @@ mod tests {
         s.bvh_only_visited = true;
         let visited = s.overlay_lines().iter().filter(|v| v.color == BOX_COLOR || v.color == LEAF_COLOR).count();
         assert!(visited <= all);
+    }
+
+    #[test]
+    fn the_overlay_key_follows_what_the_lines_show() {
+        let mut s = state();
+        let key = s.overlay_key();
+        let lines = s.overlay_lines();
+        // Orbiting and settings that do not touch the selection leave the lines as they are.
+        s.trackball.orbit(10.0, 5.0);
+        assert_eq!(s.overlay_key(), key);
+        assert_eq!(s.overlay_lines(), lines);
+        s.bvh_level = Some(2);
+        assert_ne!(s.overlay_key(), key);
+        let level = s.overlay_key();
+        s.select_pixel(400, 400);
+        assert_ne!(s.overlay_key(), level);
+        let selected = s.overlay_key();
+        s.retrace();
+        assert_ne!(s.overlay_key(), selected, "a re-traced pixel may have other shadow samples");
+        for toggle in
+            [|s: &mut ViewerState| s.bvh_only_visited ^= true, |s: &mut ViewerState| s.show_light_samples ^= true]
+        {
+            let before = s.overlay_key();
+            toggle(&mut s);
+            assert_ne!(s.overlay_key(), before);
+        }
     }
 
     #[test]
