@@ -228,6 +228,7 @@ pub fn render_pass(
 ) -> (RayCounts, bool) {
     let integrator = Integrator::new(scene, settings);
     let still = camera.end.is_none().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
+    let setup = Pass { integrator: &integrator, camera, still: still.as_ref(), pass };
     let w = settings.width as usize;
     let total = w * settings.height as usize;
     let done = AtomicUsize::new(0);
@@ -250,14 +251,14 @@ pub fn render_pass(
                 let y = (b * BAND_ROWS + row) as u32;
                 let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
                 for (run, (sums, counts)) in runs.enumerate() {
-                    let x0 = (run * PACKET) as u32;
-                    rays.add(match still.as_ref() {
+                    let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts };
+                    rays.add(match setup.still {
                         // Pixels side by side that are at the same sample: their camera rays
                         // share the pinhole and go through the BVH together.
-                        Some(generator) if counts.iter().all(|c| *c == counts[0]) => {
-                            sample_run(&integrator, camera, generator, x0, y, sums, counts, pass)
+                        Some(generator) if pixels.counts.iter().all(|c| *c == pixels.counts[0]) => {
+                            setup.sample_run(generator, pixels)
                         }
-                        _ => sample_alone(&integrator, camera, still.as_ref(), x0, y, sums, counts, pass),
+                        _ => setup.sample_alone(pixels),
                     });
                 }
             }
@@ -305,89 +306,86 @@ fn camera_ray(
     ray
 }
 
-/// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger, uses
-/// (or [`sample_run`], which differs only in finding the camera rays' hits as a packet).
-#[allow(clippy::too_many_arguments)]
-fn sample_pixel<R: RayRecorder>(
-    integrator: &Integrator,
-    camera: &CameraMotion,
-    still: Option<&RayGenerator>,
-    x: u32,
-    y: u32,
-    k: u32,
+/// What every pixel of a pass shares.
+struct Pass<'a> {
+    /// The scene and settings, ready to shade.
+    integrator: &'a Integrator<'a>,
+    /// The camera over the shutter interval.
+    camera: &'a CameraMotion,
+    /// A still camera's ray generator, made once per pass (`None` for a moving camera, whose
+    /// generator is made per sample).
+    still: Option<&'a RayGenerator>,
+    /// Which samples the pass adds.
     pass: SamplePass,
-    rec: &mut R,
-) -> (Color, RayCounts) {
-    let s = integrator.settings;
-    let sampler = PixelSampler::new(pass.seed, y * s.width + x, k, pass.planned);
-    let ray = camera_ray(s, camera, still, x, y, &sampler);
-    let mut ctx = PathContext::new(sampler, rec);
-    let c = integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
-    (c, ctx.counts)
 }
 
-/// Add `pass`'s samples to a run of up to [`PACKET`] pixels from `(x0, y)` rightwards, all
-/// at the same sample count (`counts`), seen by a still camera (`generator`): each sample's camera
-/// rays are traced as one packet, then each pixel's sample goes on as in [`sample_pixel`].
-/// The film gets the same values, bit for bit, as pixel by pixel.
-#[allow(clippy::too_many_arguments)]
-fn sample_run(
-    integrator: &Integrator,
-    camera: &CameraMotion,
-    generator: &RayGenerator,
+/// Up to [`PACKET`] pixels of row `y` from `x0` rightwards, with their running sums and sample
+/// counts in the film.
+struct PixelRun<'a> {
     x0: u32,
     y: u32,
-    sums: &mut [Color],
-    counts: &mut [u32],
-    pass: SamplePass,
-) -> RayCounts {
-    let n = sums.len();
-    let mut total = RayCounts::default();
-    let first = counts[0];
-    let last = sample_range(first, pass);
-    let s = integrator.settings;
-    let x = |i: usize| x0 + i.min(n - 1) as u32;
-    for k in first..last {
-        let samplers: [PixelSampler; PACKET] =
-            std::array::from_fn(|i| PixelSampler::new(pass.seed, y * s.width + x(i), k, pass.planned));
-        let rays: [Ray; PACKET] =
-            std::array::from_fn(|i| camera_ray(s, camera, Some(generator), x(i), y, &samplers[i]));
-        let hits = integrator.scene.intersect_packet(&rays[..n]);
-        let mut rec = NoRecorder;
-        for (i, sampler) in samplers.into_iter().enumerate().take(n) {
-            let mut ctx = PathContext::new(sampler, &mut rec);
-            sums[i] += integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
-            total.add(ctx.counts);
-        }
-    }
-    counts.fill(last);
-    total
+    sums: &'a mut [Color],
+    counts: &'a mut [u32],
 }
 
-/// Add `pass`'s samples to a run of pixels from `(x0, y)` rightwards one pixel and one sample
-/// at a time (pixels at different sample counts, or a moving camera).
-#[allow(clippy::too_many_arguments)]
-fn sample_alone(
-    integrator: &Integrator,
-    camera: &CameraMotion,
-    still: Option<&RayGenerator>,
-    x0: u32,
-    y: u32,
-    sums: &mut [Color],
-    counts: &mut [u32],
-    pass: SamplePass,
-) -> RayCounts {
-    let mut total = RayCounts::default();
-    for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
-        let last = sample_range(*count, pass);
-        for k in *count..last {
-            let (c, r) = sample_pixel(integrator, camera, still, x, y, k, pass, &mut NoRecorder);
-            *sum += c;
-            total.add(r);
-        }
-        *count = last;
+impl Pass<'_> {
+    /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,
+    /// uses (or [`Pass::sample_run`], which differs only in finding the camera rays' hits as
+    /// a packet).
+    fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
+        let s = self.integrator.settings;
+        let sampler = PixelSampler::new(self.pass.seed, y * s.width + x, k, self.pass.planned);
+        let ray = camera_ray(s, self.camera, self.still, x, y, &sampler);
+        let mut ctx = PathContext::new(sampler, rec);
+        let c = self.integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
+        (c, ctx.counts)
     }
-    total
+
+    /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
+    /// by a still camera (`generator`): each sample's camera rays are traced as one packet,
+    /// then each pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same
+    /// values, bit for bit, as pixel by pixel.
+    fn sample_run(&self, generator: &RayGenerator, run: PixelRun) -> RayCounts {
+        let PixelRun { x0, y, sums, counts } = run;
+        let n = sums.len();
+        let mut total = RayCounts::default();
+        let first = counts[0];
+        let last = sample_range(first, self.pass);
+        let s = self.integrator.settings;
+        let x = |i: usize| x0 + i.min(n - 1) as u32;
+        for k in first..last {
+            let samplers: [PixelSampler; PACKET] =
+                std::array::from_fn(|i| PixelSampler::new(self.pass.seed, y * s.width + x(i), k, self.pass.planned));
+            let rays: [Ray; PACKET] =
+                std::array::from_fn(|i| camera_ray(s, self.camera, Some(generator), x(i), y, &samplers[i]));
+            let hits = self.integrator.scene.intersect_packet(&rays[..n]);
+            let mut rec = NoRecorder;
+            for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+                let mut ctx = PathContext::new(sampler, &mut rec);
+                sums[i] += self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
+                total.add(ctx.counts);
+            }
+        }
+        counts.fill(last);
+        total
+    }
+
+    /// Add the pass's samples to `run` one pixel and one sample at a time (pixels at
+    /// different sample counts, or a moving camera).
+    fn sample_alone(&self, run: PixelRun) -> RayCounts {
+        let PixelRun { x0, y, sums, counts } = run;
+        let mut total = RayCounts::default();
+        for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
+            let last = sample_range(*count, self.pass);
+            for k in *count..last {
+                let (c, r) = self.sample_pixel(x, y, k, &mut NoRecorder);
+                *sum += c;
+                total.add(r);
+            }
+            *count = last;
+        }
+        total
+    }
 }
 
 /// Render `scene` with `settings` (all `spp` samples per pixel) on the current rayon pool,
@@ -424,7 +422,7 @@ pub fn trace_pixel<R: RayRecorder>(
 ) -> Color {
     let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
-    sample_pixel(&integrator, camera, None, x, y, k, pass, rec).0
+    Pass { integrator: &integrator, camera, still: None, pass }.sample_pixel(x, y, k, rec).0
 }
 
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
