@@ -7,10 +7,11 @@
 //! ```
 //!
 //! For each mesh (the dragon and the teapot from the course's files, and a procedural mesh of
-//! about a million triangles) it builds both BVHs, traces 800x800 camera rays, as many
-//! incoherent rays (random origins in the scene's box, random directions) and shadow rays
-//! (any-hit) on 1 and 2 threads, checks that both find the same closest hits, and prints the
-//! times, throughputs and ratios as a Markdown table. Embree gets its recommended settings:
+//! about a million triangles) it builds both BVHs, traces 800x800 camera rays (one at a time,
+//! and in packets of eight neighbouring pixels: our `intersect_packet` against Embree's
+//! `rtcIntersect8`), as many incoherent rays (random origins in the scene's box, random
+//! directions) and shadow rays (any-hit) on 1 and 2 threads, checks that both find the same
+//! closest hits, and prints the times, throughputs and ratios as a Markdown table. Embree gets its recommended settings:
 //! flush-to-zero and denormals-are-zero on every thread, the coherent flag for camera rays,
 //! its default (medium quality) build on the same number of threads.
 
@@ -20,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use embree::sys;
 use rayon::prelude::*;
+use rayscope::bvh::packet::PACKET;
 use rayscope::camera::CameraDesc;
 use rayscope::material::Material;
 use rayscope::math::Vec3A;
@@ -160,6 +162,25 @@ impl Embree {
         (rh.hit.geomID != u32::MAX).then_some((rh.hit.primID, rh.ray.tfar))
     }
 
+    /// Closest hits of up to eight rays in one `rtcIntersect8` call (Embree's packet mode,
+    /// with the coherent flag: for camera rays of neighbouring pixels); returns how many hit.
+    fn intersect8(&self, rays: &[Ray]) -> usize {
+        let mut rh: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
+        let mut valid = [0i32; 8];
+        for (i, r) in rays.iter().enumerate().take(8) {
+            let one = rtc_ray(r);
+            let ray = &mut rh.ray;
+            (ray.org_x[i], ray.org_y[i], ray.org_z[i], ray.tnear[i]) = (one.org_x, one.org_y, one.org_z, one.tnear);
+            (ray.dir_x[i], ray.dir_y[i], ray.dir_z[i], ray.tfar[i]) = (one.dir_x, one.dir_y, one.dir_z, one.tfar);
+            ray.mask[i] = u32::MAX;
+            rh.hit.geomID[i] = u32::MAX;
+            valid[i] = -1;
+        }
+        let mut ctx = embree::IntersectContext::coherent();
+        unsafe { sys::rtcIntersect8(valid.as_ptr(), self.scene, &mut ctx, &mut rh) };
+        rh.hit.geomID.iter().take(rays.len()).filter(|g| **g != u32::MAX).count()
+    }
+
     fn occluded(&self, r: &Ray) -> bool {
         let mut ray = rtc_ray(r);
         let mut ctx = embree::IntersectContext::incoherent();
@@ -252,9 +273,18 @@ where
     F: Fn(&Ray) -> bool + Sync,
     G: Fn(&Ray) -> bool + Sync,
 {
-    let pass = |f: &(dyn Fn(&Ray) -> bool + Sync)| {
+    compare_groups(pool, rays, 1, |c| c.iter().filter(|r| ours(r)).count(), |c| c.iter().filter(|r| theirs(r)).count())
+}
+
+/// [`compare`] for functions that trace `group` rays at a time and return how many hit.
+fn compare_groups<F, G>(pool: &rayon::ThreadPool, rays: &[Ray], group: usize, ours: F, theirs: G) -> (f64, f64)
+where
+    F: Fn(&[Ray]) -> usize + Sync,
+    G: Fn(&[Ray]) -> usize + Sync,
+{
+    let pass = |f: &(dyn Fn(&[Ray]) -> usize + Sync)| {
         let start = Instant::now();
-        let hits = pool.install(|| rays.par_chunks(4096).map(|c| c.iter().filter(|r| f(r)).count()).sum::<usize>());
+        let hits = pool.install(|| rays.par_chunks(4096).map(|c| c.chunks(group).map(f).sum::<usize>()).sum::<usize>());
         std::hint::black_box(hits);
         start.elapsed()
     };
@@ -285,9 +315,9 @@ fn main() {
     }
     println!("Our traversal: {:?} (chosen at run time).\n", rayscope::bvh::wide::SimdLevel::detect());
     println!(
-        "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | incoherent | any-hit (shadow) | hits agree |"
+        "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | camera, packets of 8 | incoherent | any-hit (shadow) | hits agree |"
     );
-    println!("|---|---:|---:|---|---|---|---|---|");
+    println!("|---|---:|---:|---|---|---|---|---|---|");
     for soup in &soups {
         let scene = ours(soup);
         let cam = camera_rays(&scene);
@@ -324,16 +354,31 @@ fn main() {
             }
             let total = cam.len() + inc.len();
             let (oc, ec) = compare(&pool, &cam, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, true).is_some());
+            // Eight neighbouring pixels of a row per packet, as the renderer traces them. Both
+            // packet modes must find what their single rays find.
+            let hits = |f: &dyn Fn(&[Ray]) -> usize| cam.chunks(PACKET).map(f).sum::<usize>();
+            let single = cam.iter().filter(|r| emb.intersect(r, true).is_some()).count();
+            assert_eq!(hits(&|c| emb.intersect8(c)), single, "rtcIntersect8 and rtcIntersect1 disagree");
+            let packed = hits(&|c| scene.intersect_packet(c).iter().filter(|h| h.is_some()).count());
+            assert_eq!(packed, cam.iter().filter(|r| scene.intersect(r).is_some()).count());
+            let (op, ep) = compare_groups(
+                &pool,
+                &cam,
+                PACKET,
+                |c| scene.intersect_packet(c).iter().filter(|h| h.is_some()).count(),
+                |c| emb.intersect8(c),
+            );
             let (oi, ei) =
                 compare(&pool, &inc, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, false).is_some());
             let (os, es) = compare(&pool, &shadow, |r| scene.occluded(r), |r| emb.occluded(r));
             println!(
-                "| {} | {} | {threads} | {:.1} / {:.1} | {oc:.2} / {ec:.2} / {:.2} | {oi:.2} / {ei:.2} / {:.2} | {os:.2} / {es:.2} / {:.2} | {} of {total} differ |",
+                "| {} | {} | {threads} | {:.1} / {:.1} | {oc:.2} / {ec:.2} / {:.2} | {op:.2} / {ep:.2} / {:.2} | {oi:.2} / {ei:.2} / {:.2} | {os:.2} / {es:.2} / {:.2} | {} of {total} differ |",
                 soup.name,
                 soup.triangles.len(),
                 build_ours.as_secs_f64() * 1e3,
                 emb_build.as_secs_f64() * 1e3,
                 oc / ec,
+                op / ep,
                 oi / ei,
                 os / es,
                 disagree
