@@ -38,12 +38,36 @@ pub type PacketHits = [Option<BvhHit>; PACKET];
 /// sign.
 fn packet_compatible(rays: &[Ray], invs: &[Vec3A; PACKET]) -> bool {
     let Some(first) = rays.first() else { return false };
+    if rays.len() > PACKET || !ray_is_finite(first) {
+        return false;
+    }
+    // The same origin bit for bit (so only the first one's needs checking for finiteness);
+    // every ray checked without an early exit, which would be a branch per ray.
     let origin = first.origin.to_array().map(f32::to_bits);
     let sign = |inv: &Vec3A| inv.cmplt(Vec3A::ZERO).bitmask();
-    rays.len() <= PACKET
-        && rays.iter().zip(invs).all(|(r, inv)| {
-            ray_is_finite(r) && r.origin.to_array().map(f32::to_bits) == origin && sign(inv) == sign(&invs[0])
-        })
+    let mut ok = true;
+    for (r, inv) in rays.iter().zip(invs) {
+        ok &= (r.origin.to_array().map(f32::to_bits) == origin)
+            & (sign(inv) == sign(&invs[0]))
+            & r.dir.is_finite()
+            & !r.t.min.is_nan()
+            & !r.t.max.is_nan();
+    }
+    ok
+}
+
+/// The lesser of two numbers that are not NaN (the packet's rays are checked finite, their
+/// hits' distances are finite): one instruction, where `f32::min`'s handling of NaN costs
+/// several, and the packet's set-up takes dozens of these.
+#[inline(always)]
+fn lesser(a: f32, b: f32) -> f32 {
+    if b < a { b } else { a }
+}
+
+/// The greater of two numbers that are not NaN (see [`lesser`]).
+#[inline(always)]
+fn greater(a: f32, b: f32) -> f32 {
+    if b > a { b } else { a }
 }
 
 /// A stack entry: a child reference, the rays still to trace into it, and the packet's
@@ -148,8 +172,8 @@ impl Bvh8 {
         let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for v in &invs[..n] {
             for a in 0..3 {
-                inv_lo[a] = inv_lo[a].min(v[a]);
-                inv_hi[a] = inv_hi[a].max(v[a]);
+                inv_lo[a] = lesser(inv_lo[a], v[a]);
+                inv_hi[a] = greater(inv_hi[a], v[a]);
             }
         }
         // The rows entered and left by are the same for every ray: one sign per axis.
@@ -169,13 +193,13 @@ impl Bvh8 {
             t_min_pos: f32x8::new(std::array::from_fn(|lane| t_min_of(lane) + 0.0)),
             // Finite, as in the single-ray test: with an end at -inf, a ray going down every
             // axis would meet the empty slots' boxes at +inf.
-            t_min: f32x8::new(std::array::from_fn(|lane| ray(lane).t.min.max(f32::MIN))),
-            t_min_lo: rays.iter().map(|r| r.t.min.max(f32::MIN)).fold(f32::INFINITY, f32::min),
+            t_min: f32x8::new(std::array::from_fn(|lane| greater(ray(lane).t.min, f32::MIN))),
+            t_min_lo: rays.iter().map(|r| greater(r.t.min, f32::MIN)).fold(f32::INFINITY, lesser),
             active: (1u32 << n) - 1,
         };
         let mut t_max: [f32; PACKET] = std::array::from_fn(|lane| ray(lane).t.max);
         // The packet's farthest interval end, for the inner nodes' test and the stack.
-        let mut t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let mut t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
 
         // Each ray's leaf-test set-up, made when the ray first reaches a leaf (rays that miss
         // everything never need one).
@@ -212,7 +236,7 @@ impl Bvh8 {
                         )
                     };
                 }
-                t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {
                 let node = &self.nodes[current.child as usize];
                 let (near, mut mask) = p.test(node, t_far);
