@@ -501,7 +501,9 @@ fn line_of(text: &str, offset: usize) -> usize {
 /// makes the error go away or turn into that key missing (a value of the wrong type).
 fn culprit_line(text: &str, span: std::ops::Range<usize>, message: &str) -> usize {
     let first = line_of(text, span.start);
-    if !text[span.clone()].starts_with('[') {
+    // A table's header starts its line (an array value starts after its key).
+    let line_start = text[..span.start].rfind('\n').map_or(0, |i| i + 1);
+    if !text[span.clone()].starts_with('[') || !text[line_start..span.start].trim().is_empty() {
         return first;
     }
     // The body: from the header to the next header (or the end).
@@ -563,6 +565,8 @@ mod tests {
             ("name = \"x\"\n[camera]\nkind = \"trackball\"\nfov = \"wide\"\ndistance = 3\n", 4),
             ("[[light]]\nkind = \"point\"\ncolor = [1, 1, 1]\nposition = [0, \"up\", 0]\n", 4),
             ("[[light]]\nkind = \"point\"\nposition = [0, 1, 0]\ncolor = [1, 1]\n\n[[light]]\nkind = \"point\"\n", 4),
+            // Untagged tables: the parser's own span, on the value.
+            ("[[sphere]]\nradius = 1\ncenter = [0, \"a\", 0]\nmaterial = { kd = [1, 0, 0] }\n", 3),
         ];
         for (text, want) in cases {
             match SceneDesc::from_toml(text, Path::new("s.toml")) {
