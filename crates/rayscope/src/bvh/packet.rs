@@ -113,11 +113,32 @@ impl Bvh8 {
     /// [`crate::bvh::WideBvh::intersect`] on each: as one packet when they are finite, share
     /// their origin bit for bit and have one direction sign per axis, else one by one.
     pub fn intersect_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
-        let mut hits = [None; PACKET];
-        let Some(last) = rays.len().checked_sub(1) else { return hits };
-        if self.nodes.is_empty() {
-            return hits;
+        if rays.is_empty() || self.nodes.is_empty() {
+            return [None; PACKET];
         }
+        #[cfg(target_arch = "x86_64")]
+        if self.simd_level() == SimdLevel::Avx2 {
+            // SAFETY: the level is Avx2 only where the CPU has those features.
+            return unsafe { self.packet_avx2(rays, prims) };
+        }
+        // SAFETY: the portable test needs no CPU feature.
+        unsafe { self.packet_setup::<<super::wide::Lanes<8> as NodeWidth<8>>::Portable, P>(rays, prims) }
+    }
+
+    /// [`Bvh8::intersect_packet`] compiled for AVX2, the packet's set-up included.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn packet_avx2<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
+        // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.packet_setup::<<super::wide::Lanes<8> as NodeWidth<8>>::Avx2, P>(rays, prims) }
+    }
+
+    /// The packet's set-up and traversal with node test `T` (the CPU must have its features);
+    /// `rays` is not empty.
+    #[inline(always)]
+    unsafe fn packet_setup<T: NodeTest<8>, P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
+        let mut hits = [None; PACKET];
+        let last = rays.len() - 1;
         // Lanes beyond the packet repeat its last ray.
         let invs: [Vec3A; PACKET] = std::array::from_fn(|lane| safe_inv_dir(rays[lane.min(last)].dir));
         if !packet_compatible(rays, &invs) {
@@ -126,30 +147,9 @@ impl Bvh8 {
             }
             return hits;
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.simd_level() == SimdLevel::Avx2 {
-            // SAFETY: the level is Avx2 only where the CPU has those features.
-            unsafe { self.packet_avx2(rays, &invs, prims, &mut hits) };
-            return hits;
-        }
-        // SAFETY: the portable test needs no CPU feature.
-        unsafe {
-            self.packet_with::<<super::wide::Lanes<8> as NodeWidth<8>>::Portable, P>(rays, &invs, prims, &mut hits)
-        };
+        // SAFETY: the caller vouches for T's CPU features.
+        unsafe { self.packet_with::<T, P>(rays, &invs, prims, &mut hits) };
         hits
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    unsafe fn packet_avx2<P: Primitives + ?Sized>(
-        &self,
-        rays: &[Ray],
-        invs: &[Vec3A; PACKET],
-        prims: &P,
-        hits: &mut PacketHits,
-    ) {
-        // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.packet_with::<<super::wide::Lanes<8> as NodeWidth<8>>::Avx2, P>(rays, invs, prims, hits) }
     }
 
     /// The packet traversal, with `T` for each ray's leaf tests (the CPU must have its
