@@ -11,9 +11,10 @@
 //! and in packets of eight neighbouring pixels: our `intersect_packet` against Embree's
 //! `rtcIntersect8`), as many incoherent rays (random origins in the scene's box, random
 //! directions) and shadow rays (any-hit) on 1 and 2 threads, checks that both find the same
-//! closest hits, and prints the times, throughputs and ratios as a Markdown table. Embree gets its recommended settings:
-//! flush-to-zero and denormals-are-zero on every thread, the coherent flag for camera rays,
-//! its default (medium quality) build on the same number of threads.
+//! closest hits, and prints the times, throughputs and ratios as a Markdown table. Embree gets
+//! its recommended settings: flush-to-zero and denormals-are-zero on every thread, the
+//! coherent flag for camera rays, its default (medium quality) build on the same number of
+//! threads.
 
 use std::ffi::CString;
 use std::path::PathBuf;
@@ -356,18 +357,12 @@ fn main() {
             let (oc, ec) = compare(&pool, &cam, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, true).is_some());
             // Eight neighbouring pixels of a row per packet, as the renderer traces them. Both
             // packet modes must find what their single rays find.
+            let our_packet = |c: &[Ray]| scene.intersect_packet(c).iter().filter(|h| h.is_some()).count();
             let hits = |f: &dyn Fn(&[Ray]) -> usize| cam.chunks(PACKET).map(f).sum::<usize>();
             let single = cam.iter().filter(|r| emb.intersect(r, true).is_some()).count();
             assert_eq!(hits(&|c| emb.intersect8(c)), single, "rtcIntersect8 and rtcIntersect1 disagree");
-            let packed = hits(&|c| scene.intersect_packet(c).iter().filter(|h| h.is_some()).count());
-            assert_eq!(packed, cam.iter().filter(|r| scene.intersect(r).is_some()).count());
-            let (op, ep) = compare_groups(
-                &pool,
-                &cam,
-                PACKET,
-                |c| scene.intersect_packet(c).iter().filter(|h| h.is_some()).count(),
-                |c| emb.intersect8(c),
-            );
+            assert_eq!(hits(&our_packet), cam.iter().filter(|r| scene.intersect(r).is_some()).count());
+            let (op, ep) = compare_groups(&pool, &cam, PACKET, our_packet, |c| emb.intersect8(c));
             let (oi, ei) =
                 compare(&pool, &inc, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, false).is_some());
             let (os, es) = compare(&pool, &shadow, |r| scene.occluded(r), |r| emb.occluded(r));

@@ -186,7 +186,7 @@ impl Nodes {
         }
     }
 
-    fn into_vec(mut self) -> Vec<BvhNode> {
+    fn into_vec(self) -> Vec<BvhNode> {
         if self.done.is_empty() {
             return self.cur;
         }
@@ -194,7 +194,6 @@ impl Nodes {
         for part in self.done.iter().chain(std::iter::once(&self.cur)) {
             all.extend_from_slice(part);
         }
-        self.done.clear();
         all
     }
 }
@@ -210,19 +209,19 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
     }
     let split = find_split(prims, &b.bounds, &b.centroids, params);
     let leaf_cost = params.intersection_cost * blocks(n as u32, params.block_size) as f32;
-    let (mid, lb, rb) = match split {
+    let mid = match split {
         Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &s),
-        None if n > params.max_leaf_size => {
-            let mid = median_split(prims, &b.centroids);
-            (mid, Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]))
-        }
+        None if n > params.max_leaf_size => median_split(prims, &b.centroids),
         _ => {
             out.push(leaf);
             return;
         }
     };
+    let (lb, rb) = (Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]));
     let here = out.len();
     out.push(BvhNode::new(b.bounds, 0, 0));
+    // This node's place in `out.cur`, which keeps it until an `append` moves the array away.
+    let at = out.cur.len() - 1;
     let (left, right) = prims.split_at_mut(mid);
     let right_offset = offset + mid as u32;
     if n > params.parallel_threshold {
@@ -230,16 +229,11 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
             || subtree(left, lb, offset, depth + 1, params),
             || subtree(right, rb, right_offset, depth + 1, params),
         );
-        // This node is the last of `out.cur`: `append` moves that array away.
-        if let Some(node) = out.cur.last_mut() {
-            node.start = 1 + l.len() as u32;
-        }
+        out.cur[at].start = 1 + l.len() as u32;
         out.append(l);
         out.append(r);
     } else {
-        // Below the threshold everything is built on this thread, into `out.cur`, where
-        // this node stays.
-        let at = out.cur.len() - 1;
+        // Below the threshold everything is built on this thread, into `out.cur`.
         build_node(left, lb, offset, depth + 1, params, out);
         out.cur[at].start = (out.len() - here) as u32;
         build_node(right, rb, right_offset, depth + 1, params, out);
@@ -388,9 +382,8 @@ fn find_split_in<const N: usize>(
     })
 }
 
-/// Put the primitives left of split `s` first; returns their number and both sides' bounds
-/// (measured in one pass over each side afterwards).
-fn partition(prims: &mut [BuildPrim], s: &Split) -> (usize, Bounds, Bounds) {
+/// Put the primitives left of split `s` first; returns their number.
+fn partition(prims: &mut [BuildPrim], s: &Split) -> usize {
     // The binning's arithmetic: for `rel >= 0` and a whole `s.bin` in 1..bins,
     // `trunc(min(rel, bins - 1)) < s.bin` exactly when `rel < s.bin` (the split axis has
     // extent, so `rel` is never NaN).
@@ -406,7 +399,7 @@ fn partition(prims: &mut [BuildPrim], s: &Split) -> (usize, Bounds, Bounds) {
         prims.swap(i, mid);
         mid += usize::from(left);
     }
-    (mid, Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]))
+    mid
 }
 
 /// Halve by count along the widest centroid axis: the fallback when the SAH finds no plane
