@@ -252,13 +252,13 @@ pub fn render_pass(
                 let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
                 for (run, (sums, counts)) in runs.enumerate() {
                     let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts };
-                    rays.add(match setup.still {
-                        // Pixels side by side that are at the same sample: their camera rays
-                        // share the pinhole and go through the BVH together.
-                        Some(generator) if pixels.counts.iter().all(|c| *c == pixels.counts[0]) => {
-                            setup.sample_run(generator, pixels)
-                        }
-                        _ => setup.sample_alone(pixels),
+                    // Pixels side by side that are at the same sample, seen by a still camera:
+                    // their camera rays share the pinhole and go through the BVH together.
+                    let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
+                    rays.add(if setup.still.is_some() && same {
+                        setup.sample_run(pixels)
+                    } else {
+                        setup.sample_alone(pixels)
                     });
                 }
             }
@@ -333,31 +333,36 @@ impl Pass<'_> {
     /// uses (or [`Pass::sample_run`], which differs only in finding the camera rays' hits as
     /// a packet).
     fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
-        let s = self.integrator.settings;
-        let sampler = PixelSampler::new(self.pass.seed, y * s.width + x, k, self.pass.planned);
-        let ray = camera_ray(s, self.camera, self.still, x, y, &sampler);
+        let (sampler, ray) = self.camera_sample(x, y, k);
         let mut ctx = PathContext::new(sampler, rec);
         let c = self.integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
         (c, ctx.counts)
     }
 
+    /// The sampler of sample `k` of pixel `(x, y)` and its camera ray.
+    #[inline]
+    fn camera_sample(&self, x: u32, y: u32, k: u32) -> (PixelSampler, Ray) {
+        let s = self.integrator.settings;
+        let sampler = PixelSampler::new(self.pass.seed, y * s.width + x, k, self.pass.planned);
+        let ray = camera_ray(s, self.camera, self.still, x, y, &sampler);
+        (sampler, ray)
+    }
+
     /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
-    /// by a still camera (`generator`): each sample's camera rays are traced as one packet,
-    /// then each pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same
-    /// values, bit for bit, as pixel by pixel.
-    fn sample_run(&self, generator: &RayGenerator, run: PixelRun) -> RayCounts {
+    /// by a still camera: each sample's camera rays are traced as one packet, then each
+    /// pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same values, bit
+    /// for bit, as pixel by pixel.
+    fn sample_run(&self, run: PixelRun) -> RayCounts {
         let PixelRun { x0, y, sums, counts } = run;
         let n = sums.len();
         let mut total = RayCounts::default();
         let first = counts[0];
         let last = sample_range(first, self.pass);
-        let s = self.integrator.settings;
         let x = |i: usize| x0 + i.min(n - 1) as u32;
         for k in first..last {
-            let samplers: [PixelSampler; PACKET] =
-                std::array::from_fn(|i| PixelSampler::new(self.pass.seed, y * s.width + x(i), k, self.pass.planned));
-            let rays: [Ray; PACKET] =
-                std::array::from_fn(|i| camera_ray(s, self.camera, Some(generator), x(i), y, &samplers[i]));
+            let cams: [(PixelSampler, Ray); PACKET] = std::array::from_fn(|i| self.camera_sample(x(i), y, k));
+            let rays: [Ray; PACKET] = std::array::from_fn(|i| cams[i].1);
+            let samplers = cams.map(|c| c.0);
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let mut rec = NoRecorder;
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {

@@ -11,8 +11,8 @@
 //! whole subtree's primitives. On the dragon it makes half as many nodes, most of them full.
 
 use super::wide::{
-    BLOCK_BITS, LEAF_BIT, Lanes, LeafRange, MAX_BLOCKS, NodeWidth, PACKED_BIT, SimdLevel, Tri4, WideBvh, WideNode,
-    is_packed,
+    BLOCK_BITS, LEAF_BIT, Lanes, LeafRange, MAX_BLOCKS, NodeWidth, SimdLevel, Tri4, WideBvh, WideNode, is_packed,
+    packed_ref, range_ref,
 };
 use wide::f32x8;
 
@@ -314,11 +314,10 @@ where
                 let end = (chunk + 4).min(start + count);
                 self.blocks.push(Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t)))));
             }
-            let n = self.blocks.len() as u32 - first;
-            LEAF_BIT | PACKED_BIT | ((n - 1) << BLOCK_BITS) | first
+            packed_ref(first, self.blocks.len() as u32 - first)
         } else {
             self.ranges.push(range);
-            LEAF_BIT | (self.ranges.len() as u32 - 1)
+            range_ref(self.ranges.len() as u32 - 1)
         }
     }
 }

@@ -16,11 +16,11 @@
 //! per-ray test, and ties between equally distant primitives go to the lower slot whatever
 //! the order leaves are visited in.
 
-use wide::{f32x8, i32x8};
+use wide::f32x8;
 
 use super::wide::{
-    Bvh8, EMPTY, LEAF_BIT, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Stack, WideNode, fused_mul_sub, planes,
-    ray_is_finite, sort_far_to_near,
+    Bvh8, EMPTY, LEAF_BIT, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Slab, Stack, WideNode, fused_mul_sub,
+    planes, ray_is_finite, sort_far_to_near,
 };
 use super::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
@@ -179,6 +179,9 @@ impl Bvh8 {
         // The rows entered and left by are the same for every ray: one sign per axis.
         let (near_row, far_row) = planes(invs[0]);
         let t_min_of = |lane: usize| ray(lane).t.min;
+        // Finite, as in the single-ray test: with an end at -inf, a ray going down every axis
+        // would meet the empty slots' boxes at +inf.
+        let t_min: [f32; PACKET] = std::array::from_fn(|lane| greater(t_min_of(lane), f32::MIN));
         let p = Packet {
             o,
             near_row,
@@ -191,10 +194,9 @@ impl Bvh8 {
             slack: std::array::from_fn(|a| o[a].abs() * inv_lo[a].abs().max(inv_hi[a].abs()) * (2.0f32).powi(-22)),
             nonneg: (0..PACKET).filter(|&lane| t_min_of(lane) >= 0.0).fold(0, |m, lane| m | 1 << lane),
             t_min_pos: f32x8::new(std::array::from_fn(|lane| t_min_of(lane) + 0.0)),
-            // Finite, as in the single-ray test: with an end at -inf, a ray going down every
-            // axis would meet the empty slots' boxes at +inf.
-            t_min: f32x8::new(std::array::from_fn(|lane| greater(ray(lane).t.min, f32::MIN))),
-            t_min_lo: rays.iter().map(|r| greater(r.t.min, f32::MIN)).fold(f32::INFINITY, lesser),
+            t_min: f32x8::new(t_min),
+            // Lanes beyond the packet repeat its last ray: the least over all is over the rays.
+            t_min_lo: t_min.into_iter().fold(f32::INFINITY, lesser),
             active: (1u32 << n) - 1,
         };
         let mut t_max: [f32; PACKET] = std::array::from_fn(|lane| ray(lane).t.max);
@@ -315,18 +317,13 @@ impl Packet {
     #[inline(always)]
     fn leaf_lanes(&self, node: &WideNode<8>, i: usize, t_max: f32x8) -> u32 {
         let t = |row: usize, a: usize| fused_mul_sub(f32x8::splat(node.bounds[row][i]), self.inv[a], self.oinv[a]);
-        let (n0, n1, n2) = (t(self.near_row[0], 0), t(self.near_row[1], 1), t(self.near_row[2], 2));
-        let (f0, f1, f2) = (t(self.far_row[0], 0), t(self.far_row[1], 1), t(self.far_row[2], 2));
+        let near = [t(self.near_row[0], 0), t(self.near_row[1], 1), t(self.near_row[2], 2)];
+        let far = [t(self.far_row[0], 0), t(self.far_row[1], 1), t(self.far_row[2], 2)];
         let t_max = t_max.fast_min(f32x8::splat(f32::MAX));
-        let c = |v: f32x8| -> i32x8 { wide::bytemuck::cast(v) };
-        let near = c(n0).max(c(n1)).max(c(n2).max(c(self.t_min_pos)));
-        let far = c(f0).min(c(f1)).min(c(f2).min(c(t_max)));
-        let mut hit = !near.simd_gt(far).to_bitmask() & self.nonneg;
+        let mut hit = f32x8::forward(near, far, self.t_min_pos, t_max).1 & self.nonneg;
         if self.nonneg & self.active != self.active {
             // Lines among the rays: float order for them.
-            let near = n0.fast_max(n1).fast_max(n2.fast_max(self.t_min));
-            let far = f0.fast_min(f1).fast_min(f2.fast_min(t_max));
-            hit |= near.simd_le(far).to_bitmask() & !self.nonneg;
+            hit |= f32x8::lines(near, far, self.t_min, t_max).1 & !self.nonneg;
         }
         hit & self.active
     }

@@ -11,7 +11,7 @@
 use super::Primitives;
 use super::wide::{
     EMPTY, LEAF_BIT, Lanes, LeafRange, NodeWidth, RayLanes, Stack, Tri4, WideBvh, is_packed, packed_blocks,
-    ray_is_finite,
+    range_index, ray_is_finite,
 };
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{Aabb, Triangle};
@@ -206,7 +206,7 @@ where
                         return None;
                     }
                     out.boxes[out.leaves] = b;
-                    out.ranges[out.leaves] = self.ranges[(child & !LEAF_BIT) as usize];
+                    out.ranges[out.leaves] = self.ranges[range_index(child)];
                     out.leaves += 1;
                 } else {
                     stack.push(child);

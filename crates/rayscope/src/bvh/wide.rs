@@ -211,11 +211,38 @@ impl Tri4 {
     }
 }
 
+/// The reference to a packed leaf of blocks `first..first + count` in [`WideBvh::blocks`]
+/// (`count` in `1..=MAX_BLOCKS`, `first` below `2^BLOCK_BITS`); [`packed_blocks`] reads it.
+#[inline]
+pub(super) fn packed_ref(first: u32, count: u32) -> u32 {
+    debug_assert!((1..=MAX_BLOCKS).contains(&count) && first < 1 << BLOCK_BITS);
+    LEAF_BIT | PACKED_BIT | ((count - 1) << BLOCK_BITS) | first
+}
+
+/// The first block of a packed leaf reference (the reference's low bits, whatever else it is).
+#[inline(always)]
+fn first_block(child: u32) -> usize {
+    (child & ((1 << BLOCK_BITS) - 1)) as usize
+}
+
 /// The blocks of a packed leaf reference: `first..first + count` in [`WideBvh::blocks`].
 #[inline(always)]
 pub(super) fn packed_blocks(child: u32) -> std::ops::Range<usize> {
-    let first = (child & ((1 << BLOCK_BITS) - 1)) as usize;
+    let first = first_block(child);
     first..first + ((child >> BLOCK_BITS) & 0xf) as usize + 1
+}
+
+/// The reference to range leaf `index` of [`WideBvh::ranges`]; [`range_index`] reads it.
+#[inline]
+pub(super) fn range_ref(index: u32) -> u32 {
+    debug_assert!(index & (LEAF_BIT | PACKED_BIT) == 0);
+    LEAF_BIT | index
+}
+
+/// The index in [`WideBvh::ranges`] of a range leaf reference.
+#[inline(always)]
+pub(super) fn range_index(child: u32) -> usize {
+    (child & !LEAF_BIT) as usize
 }
 
 /// Whether a child reference is a packed leaf.
@@ -455,8 +482,44 @@ macro_rules! lanes_impl {
 lanes_impl!(f32x4, 4);
 lanes_impl!(f32x8, 8);
 
+/// The slab test's last steps (see the module documentation) on the portable vectors, lane
+/// by lane: from each lane's distances to the planes it enters by (`near`) and leaves by
+/// (`far`) and its interval, its entry distance and whether it hits. The portable node tests
+/// (a ray against `W` boxes) and the packets' leaf test (eight rays against one box) share it.
+pub(super) trait Slab: Sized {
+    /// Intervals starting at or after zero (`t_min` with -0 made +0): integer order.
+    fn forward(near: [Self; 3], far: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32);
+    /// Any interval (lines): float order.
+    fn lines(near: [Self; 3], far: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32);
+}
+
+macro_rules! slab_impl {
+    ($v:ty, $i:ty, $w:literal) => {
+        impl Slab for $v {
+            #[inline(always)]
+            fn forward([n0, n1, n2]: [Self; 3], [f0, f1, f2]: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32) {
+                let i = |v: $v| -> $i { wide::bytemuck::cast(v) };
+                let near = i(n0).max(i(n1)).max(i(n2).max(i(t_min)));
+                let far = i(f0).min(i(f1)).min(i(f2).min(i(t_max)));
+                let miss = near.simd_gt(far).to_bitmask() as u32;
+                (wide::bytemuck::cast(near), !miss & ((1 << $w) - 1))
+            }
+
+            #[inline(always)]
+            fn lines([n0, n1, n2]: [Self; 3], [f0, f1, f2]: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32) {
+                let near = n0.fast_max(n1).fast_max(n2.fast_max(t_min));
+                let far = f0.fast_min(f1).fast_min(f2.fast_min(t_max));
+                (near, near.simd_le(far).to_bitmask())
+            }
+        }
+    };
+}
+
+slab_impl!(f32x4, i32x4, 4);
+slab_impl!(f32x8, i32x8, 8);
+
 macro_rules! portable_node_test {
-    ($name:ident, $w:literal, $v:ty, $i:ty) => {
+    ($name:ident, $w:literal, $v:ty) => {
         /// The slab test on the portable `wide` vectors.
         pub struct $name {
             inv: [$v; 3],
@@ -482,31 +545,24 @@ macro_rules! portable_node_test {
             #[inline(always)]
             unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
                 let t = |row: usize, a: usize| fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], self.oinv[a]);
+                let near = [t(self.near[0], 0), t(self.near[1], 1), t(self.near[2], 2)];
+                let far = [t(self.far[0], 0), t(self.far[1], 1), t(self.far[2], 2)];
                 // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
                 let t_max = <$v>::splat(t_max.min(f32::MAX));
-                if FORWARD {
-                    // Integer order (see the module documentation); `+ 0.0` turns -0 into +0.
-                    let i = |v: $v| -> $i { wide::bytemuck::cast(v) };
-                    let near = i(t(self.near[0], 0))
-                        .max(i(t(self.near[1], 1)))
-                        .max(i(t(self.near[2], 2)).max(i(<$v>::splat(t_min + 0.0))));
-                    let far = i(t(self.far[0], 0)).min(i(t(self.far[1], 1))).min(i(t(self.far[2], 2)).min(i(t_max)));
-                    let miss = near.simd_gt(far).to_bitmask() as u32;
-                    let near: $v = wide::bytemuck::cast(near);
-                    return (near.to_array(), !miss & ((1 << $w) - 1));
-                }
-                let near = t(self.near[0], 0)
-                    .fast_max(t(self.near[1], 1))
-                    .fast_max(t(self.near[2], 2).fast_max(<$v>::splat(t_min.max(f32::MIN))));
-                let far = t(self.far[0], 0).fast_min(t(self.far[1], 1)).fast_min(t(self.far[2], 2).fast_min(t_max));
-                (near.to_array(), near.simd_le(far).to_bitmask())
+                let (near, mask) = if FORWARD {
+                    // `+ 0.0` turns -0 into +0.
+                    <$v>::forward(near, far, <$v>::splat(t_min + 0.0), t_max)
+                } else {
+                    <$v>::lines(near, far, <$v>::splat(t_min.max(f32::MIN)), t_max)
+                };
+                (near.to_array(), mask)
             }
         }
     };
 }
 
-portable_node_test!(Portable4, 4, f32x4, i32x4);
-portable_node_test!(Portable8, 8, f32x8, i32x8);
+portable_node_test!(Portable4, 4, f32x4);
+portable_node_test!(Portable8, 8, f32x8);
 
 /// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step.
 #[cfg(target_arch = "x86_64")]
@@ -724,7 +780,7 @@ where
         {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
             let node = self.nodes.as_ptr().wrapping_add((child & !(LEAF_BIT | PACKED_BIT)) as usize) as *const i8;
-            let block = self.blocks.as_ptr().wrapping_add((child & ((1 << BLOCK_BITS) - 1)) as usize) as *const i8;
+            let block = self.blocks.as_ptr().wrapping_add(first_block(child)) as *const i8;
             let p = if is_packed(child) {
                 block
             } else if child & LEAF_BIT == 0 {
@@ -925,7 +981,7 @@ where
                 hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
             }
         } else {
-            let LeafRange { start, count } = self.ranges[(leaf & !LEAF_BIT) as usize];
+            let LeafRange { start, count } = self.ranges[range_index(leaf)];
             for slot in start..start + count {
                 obs.prim_tested();
                 if let Some(hit) = prims.intersect(slot, one.ray, t_min, *t_max) {
@@ -985,7 +1041,7 @@ where
                     }
                 }
             } else if current & LEAF_BIT != 0 {
-                let LeafRange { start, count } = self.ranges[(current & !LEAF_BIT) as usize];
+                let LeafRange { start, count } = self.ranges[range_index(current)];
                 for slot in start..start + count {
                     if prims.intersect(slot, ray, t_min, t_max).is_some() {
                         return true;
@@ -1042,7 +1098,7 @@ where
                         blocks.iter().flat_map(|b| b.slot).filter(|s| *s != EMPTY).collect()
                     } else {
                         let bad = BvhError::BadChild { node: i, child: c as usize };
-                        let r = self.ranges.get((c & !LEAF_BIT) as usize).ok_or(bad)?;
+                        let r = self.ranges.get(range_index(c)).ok_or(bad)?;
                         (r.start..r.start + r.count).collect()
                     };
                     for slot in slots {
