@@ -102,7 +102,7 @@ pub struct Machine {
     pub repetitions: usize,
     /// Warm-up renders per row.
     pub warmup: usize,
-    /// The BVH traversal's instruction set (chosen at run time).
+    /// The BVH traversal's instruction set and the wide BVH's width (chosen at run time).
     pub simd: String,
 }
 
@@ -130,7 +130,8 @@ fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
         .and_then(|s| s.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l[12..].trim_matches('"').to_string()))
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let simd = format!("{:?}", rayscope::bvh::wide::SimdLevel::detect());
+    let simd =
+        format!("{:?}, {}-wide BVH", rayscope::bvh::wide::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
     Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup, simd }
 }
 

@@ -333,19 +333,23 @@ impl Pass<'_> {
     /// uses (or [`Pass::sample_run`], which differs only in finding the camera rays' hits as
     /// a packet).
     fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
-        let (sampler, ray) = self.camera_sample(x, y, k);
+        let sampler = self.sampler(x, y, k);
+        let ray = self.camera_ray(x, y, &sampler);
         let mut ctx = PathContext::new(sampler, rec);
         let c = self.integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
         (c, ctx.counts)
     }
 
-    /// The sampler of sample `k` of pixel `(x, y)` and its camera ray.
+    /// The sampler of sample `k` of pixel `(x, y)`.
     #[inline]
-    fn camera_sample(&self, x: u32, y: u32, k: u32) -> (PixelSampler, Ray) {
-        let s = self.integrator.settings;
-        let sampler = PixelSampler::new(self.pass.seed, y * s.width + x, k, self.pass.planned);
-        let ray = camera_ray(s, self.camera, self.still, x, y, &sampler);
-        (sampler, ray)
+    fn sampler(&self, x: u32, y: u32, k: u32) -> PixelSampler {
+        PixelSampler::new(self.pass.seed, y * self.integrator.settings.width + x, k, self.pass.planned)
+    }
+
+    /// The camera ray of pixel `(x, y)` for the sample `sampler` draws.
+    #[inline]
+    fn camera_ray(&self, x: u32, y: u32, sampler: &PixelSampler) -> Ray {
+        camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler)
     }
 
     /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
@@ -360,9 +364,10 @@ impl Pass<'_> {
         let last = sample_range(first, self.pass);
         let x = |i: usize| x0 + i.min(n - 1) as u32;
         for k in first..last {
-            let cams: [(PixelSampler, Ray); PACKET] = std::array::from_fn(|i| self.camera_sample(x(i), y, k));
-            let rays: [Ray; PACKET] = std::array::from_fn(|i| cams[i].1);
-            let samplers = cams.map(|c| c.0);
+            // Two arrays built in place: an array of (sampler, ray) pairs split into them cost
+            // a `memcpy` per packet.
+            let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
+            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.camera_ray(x(i), y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let mut rec = NoRecorder;
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {

@@ -3,8 +3,8 @@
 mod common;
 
 use common::{Rng, assets, builtin_scene};
-use rayscope::bvh::wide::{Lanes, NodeWidth};
-use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Primitives, WideBvh};
+use rayscope::bvh::wide::{Lanes, NodeTest, NodeWidth};
+use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Bvh16, Primitives, WideBvh, WideTree};
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use rayscope::math::Vec3A;
 use rayscope::ray::Ray;
@@ -47,9 +47,9 @@ fn check(shapes: &[Shape], rays: impl Iterator<Item = Ray>) -> usize {
     check_with(shapes, &bounds, &BuildParams::default(), rays)
 }
 
-/// [`check`] with these build parameters: the binary BVH and the 4- and 8-wide BVHs collapsed
-/// from it, each against brute force and against each other (the wide ones run the SIMD slab
-/// tests, the binary one the scalar one).
+/// [`check`] with these build parameters: the binary BVH and the 4-, 8- and 16-wide BVHs
+/// collapsed from it, each against brute force and against each other (the wide ones run the
+/// SIMD slab tests, the binary one the scalar one).
 fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: impl Iterator<Item = Ray>) -> usize {
     let bvh = Bvh::build(bounds, params);
     bvh.validate(bounds).unwrap();
@@ -58,13 +58,17 @@ fn check_with(shapes: &[Shape], bounds: &[Aabb], params: &BuildParams, rays: imp
     bvh4.validate(&bvh, bounds).unwrap();
     let bvh8 = Bvh8::from_binary(&bvh, &prims);
     bvh8.validate(&bvh, bounds).unwrap();
+    let bvh16 = Bvh16::from_binary(&bvh, &prims);
+    bvh16.validate(&bvh, bounds).unwrap();
     // The same trees traversed by the baseline code: identical hits whatever the CPU has.
     let (portable4, portable8) = (bvh4.clone().portable(), bvh8.clone().portable());
+    let portable16 = bvh16.clone().portable();
     let mut hits = 0;
     for ray in rays {
         let got = bvh.intersect(&ray, &prims).map(|h| (bvh.prim_indices[h.slot as usize], h.hit));
         check_wide(&bvh4, &portable4, &prims, shapes, &ray, got);
         check_wide(&bvh8, &portable8, &prims, shapes, &ray, got);
+        check_wide(&bvh16, &portable16, &prims, shapes, &ray, got);
         let want = brute_closest(shapes, &ray);
         match (got, want) {
             (None, None) => {}
@@ -165,6 +169,7 @@ fn degenerate_inputs() {
     assert!(bvh.nodes.is_empty());
     assert!(Bvh4::from_binary(&bvh, &Ordered { shapes: &[], bvh: &bvh }).nodes.is_empty());
     assert!(Bvh8::from_binary(&bvh, &Ordered { shapes: &[], bvh: &bvh }).nodes.is_empty());
+    assert!(Bvh16::from_binary(&bvh, &Ordered { shapes: &[], bvh: &bvh }).nodes.is_empty());
     check(&[], rays(&mut rng));
     // One triangle.
     check(&[Shape::Triangle(Triangle::new(Vec3A::ZERO, Vec3A::X, Vec3A::Y))], rays(&mut rng));
@@ -214,7 +219,9 @@ fn degenerate_inputs() {
     let prims = Ordered { shapes: &soup, bvh: &bvh };
     let packets: Vec<Vec<Ray>> =
         lines.chunks(8).map(|c| c.iter().map(|r| Ray { origin: lines[0].origin, ..*r }).collect()).collect();
-    check_packets(&Bvh8::from_binary(&bvh, &prims), &prims, &packets);
+    for width in [8, 16] {
+        check_packets(&WideTree::with_width(&bvh, &prims, width), &prims, &packets);
+    }
     // Huge coordinates.
     let huge: Vec<Shape> = random_soup(&mut rng, 200, 0.3)
         .into_iter()
@@ -306,15 +313,22 @@ fn course_scenes_match_brute_force() {
         let mut rays: Vec<Ray> =
             (0..n / 2).map(|i| cam.pixel_ray((i * 37) as u32 % 100, (i * 53) as u32 % 100, 100, 100)).collect();
         rays.extend(random_rays(&mut rng, n / 2, 1.0));
-        // The rendering tree traversed by the baseline code as well as by the detected one.
-        let (g, portable) = (&scene.geometry, scene.geometry.wide.clone().portable());
+        // The rendering tree traversed by the baseline code as well as by the detected one,
+        // and the tree of the other width (8 or 16) that other CPUs render with.
+        let g = &scene.geometry;
+        let other = WideTree::with_width(&g.bvh, g, 24 - g.wide.width());
+        other.validate(&g.bvh, &bounds).unwrap();
+        let trees = [g.wide.clone().portable(), other.clone(), other.portable()];
         for ray in &rays {
             let got = scene.intersect(ray);
             let want = brute_closest(&shapes, ray);
             assert_eq!(got.map(|h| h.t), want.map(|w| w.1.t), "{name}: ray {ray:?}");
             assert_eq!(scene.occluded(ray), want.is_some(), "{name}");
-            assert_eq!(portable.intersect(ray, g), g.wide.intersect(ray, g), "{name}: SIMD levels, {ray:?}");
-            assert_eq!(portable.occluded(ray, g), g.wide.occluded(ray, g), "{name}: SIMD levels, {ray:?}");
+            for t in &trees {
+                let (w, level) = (t.width(), t.simd_level());
+                assert_eq!(t.intersect(ray, g), g.wide.intersect(ray, g), "{name}: {w}-wide, {level:?}, {ray:?}");
+                assert_eq!(t.occluded(ray, g), g.wide.occluded(ray, g), "{name}: {w}-wide, {level:?}, {ray:?}");
+            }
         }
     }
 }
@@ -371,7 +385,7 @@ fn validate_catches_broken_trees() {
 fn shadow_groups_match_one_ray_at_a_time() {
     let mut rng = Rng(21);
     let (mut groups, mut blocked, mut open, mut gave_up) = (0, 0, 0, 0);
-    let mut check_groups = |wide: &Bvh8, prims: &dyn Primitives, rng: &mut Rng, scale: f32| {
+    let mut check_groups = |wide: &WideTree, prims: &dyn Primitives, rng: &mut Rng, scale: f32| {
         for _ in 0..300 {
             let apex = rng.vec3(-scale, scale);
             let side = rng.dir();
@@ -401,10 +415,14 @@ fn shadow_groups_match_one_ray_at_a_time() {
         let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
         let bvh = Bvh::build(&bounds, &BuildParams::default());
         let prims = Ordered { shapes: &shapes, bvh: &bvh };
-        check_groups(&Bvh8::from_binary(&bvh, &prims), &prims, &mut rng, 1.2);
+        for width in [8, 16] {
+            check_groups(&WideTree::with_width(&bvh, &prims, width), &prims, &mut rng, 1.2);
+        }
     }
     let scene = builtin_scene("cornell-box-sphere-light", None);
-    check_groups(&scene.geometry.wide, &scene.geometry, &mut rng, 0.6);
+    let g = &scene.geometry;
+    check_groups(&g.wide, g, &mut rng, 0.6);
+    check_groups(&WideTree::with_width(&g.bvh, g, 24 - g.wide.width()), g, &mut rng, 0.6);
     assert!(groups > 500 && blocked > 2000 && open > 2000 && gave_up > 10, "{groups} {blocked} {open} {gave_up}");
 }
 
@@ -432,15 +450,16 @@ fn random_packets(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec<Ray>> {
         .collect()
 }
 
-/// Each ray of a packet gets exactly the single-ray traversal's hit, on both SIMD levels.
-fn check_packets<P: Primitives>(bvh8: &Bvh8, prims: &P, packets: &[Vec<Ray>]) -> usize {
-    let portable = bvh8.clone().portable();
+/// Each ray of a packet gets exactly the single-ray traversal's hit, on the detected SIMD
+/// level and the portable one.
+fn check_packets<P: Primitives>(tree: &WideTree, prims: &P, packets: &[Vec<Ray>]) -> usize {
+    let portable = tree.clone().portable();
     let mut hits = 0;
     for rays in packets {
-        let got = bvh8.intersect_packet(rays, prims);
+        let got = tree.intersect_packet(rays, prims);
         assert_eq!(got, portable.intersect_packet(rays, prims), "SIMD levels, {rays:?}");
         for (i, hit) in got.iter().enumerate() {
-            let want = rays.get(i).and_then(|r| bvh8.intersect(r, prims));
+            let want = rays.get(i).and_then(|r| tree.intersect(r, prims));
             assert_eq!(*hit, want, "ray {i} of {rays:?}");
             hits += usize::from(hit.is_some());
         }
@@ -457,14 +476,15 @@ fn packets_equal_single_rays() {
         let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
         let bvh = Bvh::build(&bounds, &BuildParams::default());
         let prims = Ordered { shapes: &shapes, bvh: &bvh };
-        let bvh8 = Bvh8::from_binary(&bvh, &prims);
         let mut packets = random_packets(&mut rng, 1500, 1.5);
         // Rays that cannot go as a packet: a NaN direction, and two origins.
         let mut bad = packets[0].clone();
         bad.push(Ray::new(Vec3A::ZERO, Vec3A::new(f32::NAN, 0.0, 1.0)));
         packets.push(bad);
         packets.push(vec![Ray::new(Vec3A::ZERO, Vec3A::X), Ray::new(Vec3A::Y, Vec3A::X)]);
-        hits += check_packets(&bvh8, &prims, &packets);
+        for width in [8, 16] {
+            hits += check_packets(&WideTree::with_width(&bvh, &prims, width), &prims, &packets);
+        }
     }
     assert!(hits > 2000, "the rays must actually hit things ({hits})");
 }
@@ -480,16 +500,18 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
         let rays: Vec<Ray> =
             (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| cam.pixel_ray(x, y, w, h)).collect();
         let packets: Vec<Vec<Ray>> = rays.chunks(8).map(<[Ray]>::to_vec).collect();
-        let hits = check_packets(&scene.geometry.wide, &scene.geometry, &packets);
+        let g = &scene.geometry;
+        let hits = check_packets(&g.wide, g, &packets);
         assert!(hits > 100, "{name}: {hits} hits");
+        assert_eq!(check_packets(&WideTree::with_width(&g.bvh, g, 24 - g.wide.width()), g, &packets), hits);
     }
 }
 
 /// A random wide node: boxes around the origin, some slots empty (at +inf, as the collapse
 /// leaves them), some flat, some touching the ray origins' planes.
-fn random_node(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<8> {
-    let mut n = rayscope::bvh::wide::WideNode { bounds: [[f32::INFINITY; 8]; 6], child: [u32::MAX; 8] };
-    for i in 0..8 {
+fn random_node<const W: usize>(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<W> {
+    let mut n = rayscope::bvh::wide::WideNode { bounds: [[f32::INFINITY; W]; 6], child: [u32::MAX; W] };
+    for i in 0..W {
         if rng.f32() < 0.15 {
             continue;
         }
@@ -507,64 +529,85 @@ fn random_node(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<8> {
     n
 }
 
-/// The slab test gives the same bits on the AVX2 path as on the portable one (entry distances
-/// and hit masks), for rays (integer order) and lines (float order), rays parallel to an axis
-/// and origins on box planes among them; and it agrees with the scalar box test.
+/// The SIMD node tests of each width, where the target has them.
+#[cfg(target_arch = "x86_64")]
+type Simd8 = rayscope::bvh::wide::Avx2Node8;
+#[cfg(not(target_arch = "x86_64"))]
+type Simd8 = rayscope::bvh::wide::Portable8;
+#[cfg(target_arch = "x86_64")]
+type Simd16 = rayscope::bvh::wide::Avx512Node16;
+#[cfg(not(target_arch = "x86_64"))]
+type Simd16 = rayscope::bvh::wide::Portable16;
+
+/// The slab test gives the same bits on the SIMD paths (AVX2 for 8 children, AVX-512 for 16,
+/// where the CPU has them) as on the portable one (entry distances and hit masks), for rays
+/// (integer order) and lines (float order), rays parallel to an axis and origins on box
+/// planes among them; and it agrees with the scalar box test.
 #[test]
 fn slab_test_is_the_same_on_every_path() {
-    use rayscope::bvh::wide::{NodeTest, Portable8, SimdLevel};
-    use rayscope::geometry::aabb::safe_inv_dir;
+    use rayscope::bvh::wide::{Portable8, Portable16, SimdLevel};
+    let level = SimdLevel::detect();
+    let (avx2, avx512) = (matches!(level, SimdLevel::Avx2 | SimdLevel::Avx512), level == SimdLevel::Avx512);
     let mut rng = Rng(77);
     let mut hits = 0;
     for _ in 0..3000 {
-        let node = random_node(&mut rng);
-        let mut ray = Ray::new(rng.vec3(-1.5, 1.5), rng.dir());
-        match rng.next_u64() % 6 {
-            0 => ray.dir = Vec3A::new(0.0, ray.dir.y, ray.dir.z).normalize(),
-            1 => ray.origin.x = node.bounds[0][0],
-            2 => ray.t.min = -rng.range(0.0, 2.0),
-            3 => ray.t.max = rng.range(0.0, 1.0),
-            _ => {}
-        }
-        let inv = safe_inv_dir(ray.dir);
-        let (t_min, t_max) = (ray.t.min, ray.t.max);
-        // SAFETY: the portable test needs no CPU feature.
-        let portable = unsafe {
-            let p = <Portable8 as NodeTest<8>>::new(&ray, inv);
-            if t_min >= 0.0 { p.test::<true>(&node, t_min, t_max) } else { p.test::<false>(&node, t_min, t_max) }
+        hits += slab_case::<8, Portable8, Simd8>(&mut rng, avx2);
+        hits += slab_case::<16, Portable16, Simd16>(&mut rng, avx512);
+    }
+    assert!(hits > 1500, "the random boxes are hit often enough to test something ({hits})");
+}
+
+/// One random node and ray for [`slab_test_is_the_same_on_every_path`]: the portable test `P`
+/// against the SIMD test `S` (when `simd`: the CPU has its features) and the scalar box test.
+/// Returns the number of boxes hit.
+fn slab_case<const W: usize, P: NodeTest<W>, S: NodeTest<W>>(rng: &mut Rng, simd: bool) -> usize {
+    use rayscope::geometry::aabb::safe_inv_dir;
+    let node = random_node::<W>(rng);
+    let mut ray = Ray::new(rng.vec3(-1.5, 1.5), rng.dir());
+    match rng.next_u64() % 6 {
+        0 => ray.dir = Vec3A::new(0.0, ray.dir.y, ray.dir.z).normalize(),
+        1 => ray.origin.x = node.bounds[0][0],
+        2 => ray.t.min = -rng.range(0.0, 2.0),
+        3 => ray.t.max = rng.range(0.0, 1.0),
+        _ => {}
+    }
+    let inv = safe_inv_dir(ray.dir);
+    let (t_min, t_max) = (ray.t.min, ray.t.max);
+    // SAFETY: the portable test needs no CPU feature.
+    let portable = unsafe {
+        let p = P::new(&ray, inv);
+        if t_min >= 0.0 { p.test::<true>(&node, t_min, t_max) } else { p.test::<false>(&node, t_min, t_max) }
+    };
+    if simd {
+        // SAFETY: the caller checked that the CPU has the test's features; the test inlines
+        // into this function's code, which is what the traversal's SIMD variants compile.
+        let fast = unsafe {
+            let a = S::new(&ray, inv);
+            if t_min >= 0.0 { a.test::<true>(&node, t_min, t_max) } else { a.test::<false>(&node, t_min, t_max) }
         };
-        #[cfg(target_arch = "x86_64")]
-        if SimdLevel::detect() == SimdLevel::Avx2 {
-            use rayscope::bvh::wide::Avx2Node8;
-            // SAFETY: the CPU has AVX2 and FMA (just checked); the test inlines into this
-            // function's code, which is what the traversal's AVX2 variant compiles.
-            let avx2 = unsafe {
-                let a = <Avx2Node8 as NodeTest<8>>::new(&ray, inv);
-                if t_min >= 0.0 { a.test::<true>(&node, t_min, t_max) } else { a.test::<false>(&node, t_min, t_max) }
-            };
-            assert_eq!(portable.1, avx2.1, "masks differ for {ray:?}");
-            for i in 0..8 {
-                if portable.1 & 1 << i != 0 {
-                    assert_eq!(portable.0[i].to_bits(), avx2.0[i].to_bits(), "entry distances differ for {ray:?}");
-                }
-            }
-        }
-        // Against the scalar test (float arithmetic): the same boxes, up to rays that graze a
-        // box within rounding.
-        for i in 0..8 {
-            if node.child[i] == u32::MAX {
-                assert_eq!(portable.1 & 1 << i, 0, "an empty slot was hit by {ray:?}");
-                continue;
-            }
-            let b = node.child_bounds(i);
-            let scalar = b.hit_distance(ray.origin, inv, t_min, t_max);
+        assert_eq!(portable.1, fast.1, "{W}-wide masks differ for {ray:?}");
+        for i in 0..W {
             if portable.1 & 1 << i != 0 {
-                hits += 1;
-                assert!((portable.0[i] - scalar).abs() <= 1e-4 * (1.0 + scalar.abs()) || scalar == f32::INFINITY);
+                assert_eq!(portable.0[i].to_bits(), fast.0[i].to_bits(), "{W}-wide entry distances differ for {ray:?}");
             }
         }
     }
-    assert!(hits > 500, "the random boxes are hit often enough to test something ({hits})");
+    // Against the scalar test (float arithmetic): the same boxes, up to rays that graze a box
+    // within rounding.
+    let mut hits = 0;
+    for i in 0..W {
+        if node.child[i] == u32::MAX {
+            assert_eq!(portable.1 & 1 << i, 0, "an empty slot was hit by {ray:?}");
+            continue;
+        }
+        let b = node.child_bounds(i);
+        let scalar = b.hit_distance(ray.origin, inv, t_min, t_max);
+        if portable.1 & 1 << i != 0 {
+            hits += 1;
+            assert!((portable.0[i] - scalar).abs() <= 1e-4 * (1.0 + scalar.abs()) || scalar == f32::INFINITY);
+        }
+    }
+    hits
 }
 
 /// The inverse of a zero direction component is a power of two, so that `o * inv` is exact.
@@ -602,5 +645,33 @@ fn collapse_fills_wide_nodes() {
                 assert!(blocks <= 4, "a leaf of {blocks} blocks");
             }
         }
+    }
+}
+
+/// A 16-wide tree is no deeper than the binary tree it comes from, and the course's meshes
+/// and a chain of ever larger boxes (the deepest binary tree the SAH makes) fit the
+/// traversals' fixed stack; where one would not, `WideTree` falls back to 8 children.
+#[test]
+fn sixteen_wide_trees_fit_the_stack() {
+    let chain: Vec<Shape> = (0..64)
+        .map(|i| {
+            let x = 1.5f32.powi(i);
+            Shape::Triangle(Triangle::new(Vec3A::new(x, 0.0, 0.0), Vec3A::new(x, 1.0, 0.0), Vec3A::new(x, 0.0, 1.0)))
+        })
+        .collect();
+    let mut rng = Rng(41);
+    for shapes in [chain, random_soup(&mut rng, 20_000, 0.02)] {
+        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let bvh = Bvh::build(&bounds, &BuildParams::default());
+        let prims = Ordered { shapes: &shapes, bvh: &bvh };
+        let wide = Bvh16::from_binary(&bvh, &prims);
+        assert!(wide.depth() <= bvh.stats().levels, "{} > {}", wide.depth(), bvh.stats().levels);
+        assert!(wide.fits_stack());
+        assert_eq!(WideTree::with_width(&bvh, &prims, 16).width(), 16);
+    }
+    let assets = assets("sixteen_wide_trees_fit_the_stack");
+    for name in course_scene_names(assets.as_ref()) {
+        let g = &builtin_scene(name, assets.as_ref()).geometry;
+        assert!(Bvh16::from_binary(&g.bvh, g).fits_stack(), "{name}");
     }
 }

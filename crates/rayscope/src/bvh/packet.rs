@@ -1,11 +1,12 @@
 //! Closest hits for packets of up to eight rays that share an origin, such as a row of a
-//! pinhole camera's pixels, traversing the 8-wide BVH once for all of them.
+//! pinhole camera's pixels, traversing a wide BVH (8 or 16 children a node) once for all of
+//! them.
 //!
 //! Camera rays of neighbouring pixels visit nearly the same nodes. Traced one at a time, each
 //! ray pays for those nodes' loads and, above all, for their data-dependent branches (which
 //! children were hit, in which order); a packet pays once. Inner nodes are tested against the
-//! whole packet at once by interval arithmetic (the children in the vector lanes, as for one
-//! ray): with a shared origin, each slab distance `(plane - o) * inv` is bounded over the
+//! whole packet at once by interval arithmetic (the children in the vector lanes, eight at a
+//! time, as for one ray): with a shared origin, each slab distance `(plane - o) * inv` is bounded over the
 //! packet by the smallest and largest inverse direction, so a child the packet test rejects is
 //! missed by every ray. A leaf's box is then tested per ray, exactly as the single-ray
 //! traversal tests it, and only the rays that hit it intersect its triangles, each with the
@@ -19,8 +20,8 @@
 use wide::f32x8;
 
 use super::wide::{
-    Bvh8, EMPTY, LEAF_BIT, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Slab, Stack, WideNode, fused_mul_sub,
-    planes, ray_is_finite, sort_far_to_near,
+    EMPTY, LEAF_BIT, Lanes, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Slab, Stack, WideBvh, WideNode,
+    fused_mul_sub, planes, ray_is_finite, sort_far_to_near,
 };
 use super::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
@@ -36,6 +37,7 @@ pub type PacketHits = [Option<BvhHit>; PACKET];
 /// Whether `rays`, whose inverse directions are `invs`, can be traced as one packet: at most
 /// [`PACKET`] finite rays with the same origin (bit for bit) and, per axis, the same direction
 /// sign.
+#[inline(always)]
 fn packet_compatible(rays: &[Ray], invs: &[Vec3A; PACKET]) -> bool {
     let Some(first) = rays.first() else { return false };
     if rays.len() > PACKET || !ray_is_finite(first) {
@@ -80,7 +82,7 @@ struct Entry {
 }
 
 /// The packet in the layouts its tests need.
-struct Packet {
+pub struct Packet {
     /// Shared origin.
     o: Vec3A,
     /// Per axis, the rows of [`WideNode::bounds`] the rays enter and leave boxes by.
@@ -108,35 +110,206 @@ struct Packet {
     active: u32,
 }
 
-impl Bvh8 {
+/// The packet's test of an inner node of `W` children (see [`Packet::test`]), made ready for
+/// one packet.
+pub trait PacketNodeTest<const W: usize>: Sized {
+    /// Prepare the test for packet `p`.
+    ///
+    /// # Safety
+    /// The CPU must have the features the implementation is compiled for.
+    unsafe fn new(p: &Packet) -> Self;
+
+    /// [`Packet::test`] on `node`.
+    ///
+    /// # Safety
+    /// As for [`PacketNodeTest::new`].
+    unsafe fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32);
+}
+
+/// The portable packet test: children eight at a time in the `wide` vectors.
+pub struct PortablePacketTest;
+
+impl<const W: usize> PacketNodeTest<W> for PortablePacketTest {
+    #[inline(always)]
+    unsafe fn new(_: &Packet) -> Self {
+        PortablePacketTest
+    }
+
+    #[inline(always)]
+    unsafe fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32) {
+        p.test(node, t_far)
+    }
+}
+
+/// The packet test of a 16-wide node in AVX-512: [`Packet::test`]'s operations on all
+/// sixteen children at once.
+#[cfg(target_arch = "x86_64")]
+pub struct Avx512PacketTest {
+    o: [std::arch::x86_64::__m512; 3],
+    lo: [std::arch::x86_64::__m512; 3],
+    hi: [std::arch::x86_64::__m512; 3],
+    slack: [std::arch::x86_64::__m512; 3],
+    t_min_lo: std::arch::x86_64::__m512,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl PacketNodeTest<16> for Avx512PacketTest {
+    #[inline(always)]
+    unsafe fn new(p: &Packet) -> Self {
+        use std::arch::x86_64::_mm512_set1_ps as splat;
+        // SAFETY: the caller vouches for AVX-512.
+        unsafe {
+            Avx512PacketTest {
+                o: [splat(p.o.x), splat(p.o.y), splat(p.o.z)],
+                lo: [splat(p.inv_lo[0]), splat(p.inv_lo[1]), splat(p.inv_lo[2])],
+                hi: [splat(p.inv_hi[0]), splat(p.inv_hi[1]), splat(p.inv_hi[2])],
+                slack: [splat(p.slack[0]), splat(p.slack[1]), splat(p.slack[2])],
+                t_min_lo: splat(p.t_min_lo),
+            }
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn test(&self, p: &Packet, node: &WideNode<16>, t_far: f32) -> ([f32; 16], u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller vouches for AVX-512 F; `d` holds sixteen floats.
+        unsafe {
+            let near = _mm512_max_ps(
+                _mm512_max_ps(self.bound::<true>(node, p.near_row[0], 0), self.bound::<true>(node, p.near_row[1], 1)),
+                _mm512_max_ps(self.bound::<true>(node, p.near_row[2], 2), self.t_min_lo),
+            );
+            let far = _mm512_min_ps(
+                _mm512_min_ps(self.bound::<false>(node, p.far_row[0], 0), self.bound::<false>(node, p.far_row[1], 1)),
+                _mm512_min_ps(self.bound::<false>(node, p.far_row[2], 2), _mm512_set1_ps(t_far.min(f32::MAX))),
+            );
+            let mut d = [0.0f32; 16];
+            _mm512_storeu_ps(d.as_mut_ptr(), near);
+            (d, u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far)))
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Avx512PacketTest {
+    /// The bound over the packet of the distances to plane row `row` (axis `a`) of `node`'s
+    /// children: the lowest if `LOWEST`, else the highest (as in [`Packet::test`]). A method,
+    /// not a closure: a closure is compiled without the caller's CPU features, and the
+    /// intrinsics in it stayed calls.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F.
+    #[inline(always)]
+    unsafe fn bound<const LOWEST: bool>(&self, node: &WideNode<16>, row: usize, a: usize) -> std::arch::x86_64::__m512 {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller vouches for AVX-512 F; nodes are 64-byte aligned and each row is
+        // 64 bytes, as the aligned load needs.
+        unsafe {
+            let d = _mm512_sub_ps(_mm512_load_ps(node.bounds[row].as_ptr()), self.o[a]);
+            let ge = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(d, _mm512_setzero_ps());
+            // `blend(k, x, y)` takes `y` where `k` is set.
+            let inv = if LOWEST {
+                _mm512_mask_blend_ps(ge, self.hi[a], self.lo[a])
+            } else {
+                _mm512_mask_blend_ps(ge, self.lo[a], self.hi[a])
+            };
+            let b = _mm512_mul_ps(d, inv);
+            let margin = _mm512_add_ps(_mm512_mul_ps(_mm512_abs_ps(b), _mm512_set1_ps(PACKET_EPS)), self.slack[a]);
+            if LOWEST { _mm512_sub_ps(b, margin) } else { _mm512_add_ps(b, margin) }
+        }
+    }
+}
+
+/// The packet tests of one node width, by [`SimdLevel`] (as [`NodeWidth`] is for single rays).
+pub trait PacketWidth<const W: usize> {
+    /// The baseline test.
+    type Portable: PacketNodeTest<W>;
+    /// The test compiled for AVX2.
+    type Avx2: PacketNodeTest<W>;
+    /// The test compiled for AVX-512.
+    type Avx512: PacketNodeTest<W>;
+}
+
+impl PacketWidth<8> for Lanes<8> {
+    type Portable = PortablePacketTest;
+    type Avx2 = PortablePacketTest;
+    type Avx512 = PortablePacketTest;
+}
+
+impl PacketWidth<16> for Lanes<16> {
+    type Portable = PortablePacketTest;
+    type Avx2 = PortablePacketTest;
+    #[cfg(target_arch = "x86_64")]
+    type Avx512 = Avx512PacketTest;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Avx512 = PortablePacketTest;
+}
+
+/// How much the inner nodes' test widens each bound, relative to its magnitude (see
+/// [`Packet::test`]).
+const PACKET_EPS: f32 = 1.0 / (1 << 21) as f32;
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W> + PacketWidth<W>,
+{
     /// The closest hit of each of up to [`PACKET`] `rays`, identical to
-    /// [`crate::bvh::WideBvh::intersect`] on each: as one packet when they are finite, share
-    /// their origin bit for bit and have one direction sign per axis, else one by one.
+    /// [`WideBvh::intersect`] on each: as one packet when they are finite, share their origin
+    /// bit for bit and have one direction sign per axis, else one by one. For trees of 8 or
+    /// 16 children a node.
     pub fn intersect_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
         if rays.is_empty() || self.nodes.is_empty() {
             return [None; PACKET];
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.simd_level() == SimdLevel::Avx2 {
-            // SAFETY: the level is Avx2 only where the CPU has those features.
-            return unsafe { self.packet_avx2(rays, prims) };
+        // SAFETY: the level names only features the CPU has; the portable test needs none.
+        unsafe {
+            match self.simd_level() {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.packet_avx512(rays, prims),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.packet_avx2(rays, prims),
+                _ => self.packet_portable(rays, prims),
+            }
         }
-        // SAFETY: the portable test needs no CPU feature.
-        unsafe { self.packet_setup::<<super::wide::Lanes<8> as NodeWidth<8>>::Portable, P>(rays, prims) }
     }
 
-    /// [`Bvh8::intersect_packet`] compiled for AVX2, the packet's set-up included.
+    /// The portable packet traversal, kept out of line (see
+    /// [`WideBvh::intersect_counted`]).
+    #[inline(never)]
+    fn packet_portable<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
+        // SAFETY: the portable tests need no CPU feature.
+        unsafe { self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Portable, PortablePacketTest, P>(rays, prims) }
+    }
+
+    /// [`WideBvh::intersect_packet`] compiled for AVX2, the packet's set-up included.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn packet_avx2<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
         // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.packet_setup::<<super::wide::Lanes<8> as NodeWidth<8>>::Avx2, P>(rays, prims) }
+        unsafe {
+            self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, <Lanes<W> as PacketWidth<W>>::Avx2, P>(rays, prims)
+        }
     }
 
-    /// The packet's set-up and traversal with node test `T` (the CPU must have its features);
-    /// `rays` is not empty.
+    /// [`WideBvh::intersect_packet`] compiled for AVX-512, the packet's set-up included.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn packet_avx512<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
+        // SAFETY: this function runs only where the CPU has AVX-512.
+        unsafe {
+            self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx512, <Lanes<W> as PacketWidth<W>>::Avx512, P>(
+                rays, prims,
+            )
+        }
+    }
+
+    /// The packet's set-up and traversal with leaf test `T` and inner-node test `Q` (the CPU
+    /// must have their features); `rays` is not empty.
     #[inline(always)]
-    unsafe fn packet_setup<T: NodeTest<8>, P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
+    unsafe fn packet_setup<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+    ) -> PacketHits {
         let mut hits = [None; PACKET];
         let last = rays.len() - 1;
         // Lanes beyond the packet repeat its last ray.
@@ -148,7 +321,7 @@ impl Bvh8 {
             return hits;
         }
         // SAFETY: the caller vouches for T's CPU features.
-        unsafe { self.packet_with::<T, P>(rays, &invs, prims, &mut hits) };
+        unsafe { self.packet_with::<T, Q, P>(rays, &invs, prims, &mut hits) };
         hits
     }
 
@@ -156,7 +329,7 @@ impl Bvh8 {
     /// features). `rays` is non-empty and packet-compatible, `invs` their inverse directions
     /// (lanes beyond the packet repeating its last ray).
     #[inline(always)]
-    unsafe fn packet_with<T: NodeTest<8>, P: Primitives + ?Sized>(
+    unsafe fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
         &self,
         rays: &[Ray],
         invs: &[Vec3A; PACKET],
@@ -199,6 +372,8 @@ impl Bvh8 {
             t_min_lo: t_min.into_iter().fold(f32::INFINITY, lesser),
             active: (1u32 << n) - 1,
         };
+        // SAFETY: the caller vouches for Q's CPU features.
+        let nodes = unsafe { Q::new(&p) };
         let mut t_max: [f32; PACKET] = std::array::from_fn(|lane| ray(lane).t.max);
         // The packet's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
@@ -241,8 +416,9 @@ impl Bvh8 {
                 t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {
                 let node = &self.nodes[current.child as usize];
-                let (near, mut mask) = p.test(node, t_far);
-                let mut order = [Entry { child: EMPTY, lanes: 0, near: 0.0 }; 8];
+                // SAFETY: as for `T::new`.
+                let (near, mut mask) = unsafe { nodes.test(&p, node, t_far) };
+                let mut order = [Entry { child: EMPTY, lanes: 0, near: 0.0 }; W];
                 let mut k = 0;
                 let t_max_v = f32x8::new(t_max);
                 while mask != 0 {
@@ -284,9 +460,26 @@ impl Bvh8 {
 impl Packet {
     /// The children of `node` that some ray of the packet may hit within `[t_min, t_far]`,
     /// and a lower bound on their entry distances over the packet. Conservative: every child
-    /// a ray's own slab test accepts is in the mask.
+    /// a ray's own slab test accepts is in the mask. Eight children at a time.
     #[inline(always)]
-    fn test(&self, node: &WideNode<8>, t_far: f32) -> ([f32; 8], u32) {
+    fn test<const W: usize>(&self, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32) {
+        let mut near = [0.0; W];
+        let mut mask = 0;
+        for first in (0..W).step_by(8) {
+            // Each row's eight floats as one copy (a lane-by-lane gather cost the 8-wide
+            // packets 12%); the entry distances stored straight into their place.
+            let rows = std::array::from_fn(|row| {
+                f32x8::new(node.bounds[row][first..first + 8].try_into().expect("eight children"))
+            });
+            mask |= self.test8(&rows, t_far, &mut near[first..first + 8]) << first;
+        }
+        (near, mask)
+    }
+
+    /// [`Packet::test`] for eight children, whose bounds' rows are `rows`: their lower bounds
+    /// on entry distances go to `near_out`, the mask is returned.
+    #[inline(always)]
+    fn test8(&self, rows: &[f32x8; 6], t_far: f32, near_out: &mut [f32]) -> u32 {
         let zero = f32x8::ZERO;
         // With the origin shared, `(plane - o) * inv` is, over the packet, smallest at the
         // smallest inverse direction when `plane - o >= 0` and at the largest otherwise, and
@@ -295,11 +488,11 @@ impl Packet {
         // are within 2^-22 of the bound's magnitude plus `slack` of these (see `slack`), so
         // each bound is widened by a little more than that.
         let bound = |row: usize, a: usize, lowest: bool| {
-            let d = f32x8::new(node.bounds[row]) - f32x8::splat(self.o[a]);
+            let d = rows[row] - f32x8::splat(self.o[a]);
             let (lo, hi) = (f32x8::splat(self.inv_lo[a]), f32x8::splat(self.inv_hi[a]));
             let ge = d.simd_ge(zero);
             let b = d * if lowest { ge.bitselect(lo, hi) } else { ge.bitselect(hi, lo) };
-            let margin = b.abs() * f32x8::splat((2.0f32).powi(-21)) + f32x8::splat(self.slack[a]);
+            let margin = b.abs() * f32x8::splat(PACKET_EPS) + f32x8::splat(self.slack[a]);
             if lowest { b - margin } else { b + margin }
         };
         let near = bound(self.near_row[0], 0, true)
@@ -309,13 +502,14 @@ impl Packet {
         let far = bound(self.far_row[0], 0, false)
             .fast_min(bound(self.far_row[1], 1, false))
             .fast_min(bound(self.far_row[2], 2, false).fast_min(f32x8::splat(t_far.min(f32::MAX))));
-        (near.to_array(), near.simd_le(far).to_bitmask())
+        near_out.copy_from_slice(near.as_array());
+        near.simd_le(far).to_bitmask()
     }
 
     /// The rays that hit child `i` of `node` within their own intervals, tested as the
     /// single-ray traversal tests a box (the same operations, lane by lane).
     #[inline(always)]
-    fn leaf_lanes(&self, node: &WideNode<8>, i: usize, t_max: f32x8) -> u32 {
+    fn leaf_lanes<const W: usize>(&self, node: &WideNode<W>, i: usize, t_max: f32x8) -> u32 {
         let t = |row: usize, a: usize| fused_mul_sub(f32x8::splat(node.bounds[row][i]), self.inv[a], self.oinv[a]);
         let near = [t(self.near_row[0], 0), t(self.near_row[1], 1), t(self.near_row[2], 2)];
         let far = [t(self.far_row[0], 0), t(self.far_row[1], 1), t(self.far_row[2], 2)];

@@ -218,7 +218,18 @@ where
 
     /// Whether anything blocks `ray`, which must be one of the segments `occ` was collected
     /// for (from its apex towards its sphere): the same answer as [`WideBvh::occluded`].
+    #[inline]
     pub fn occluded_among<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P, occ: &Occluders) -> bool {
+        occ.blocks(ray, prims)
+    }
+}
+
+impl Occluders {
+    /// [`WideBvh::occluded_among`]: the list alone answers, whatever the tree's width (so
+    /// that callers holding a tree of either width inline one copy of this hot loop).
+    #[inline]
+    pub fn blocks<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        let occ = self;
         if occ.is_empty() || !ray_is_finite(ray) {
             return false;
         }

@@ -1,11 +1,12 @@
 //! Wide BVHs collapsed from the binary one, for rendering: each node holds its `W` children's
 //! boxes as structure-of-arrays, so one SIMD slab test checks them all. Rendering uses the
-//! 8-wide tree ([`Bvh8`]): on x86-64 with AVX2 its nodes are tested with one 256-bit
-//! instruction per step (chosen at run time), elsewhere with the portable `wide` vectors
-//! (two SSE or NEON halves); the 4-wide tree ([`Bvh4`]) is the same code at half the width,
-//! kept to measure one against the other. Wider nodes mean fewer levels, and with them fewer
-//! loop iterations, stack entries and dependent loads per ray. The binary BVH stays for the
-//! debugger's level view.
+//! 16-wide tree ([`Bvh16`]) where the CPU has AVX-512, whose nodes are then tested with one
+//! 512-bit instruction per step, and the 8-wide tree ([`Bvh8`]) elsewhere: with AVX2, one
+//! 256-bit instruction per step, else the portable `wide` vectors (two SSE or NEON halves).
+//! The choice is made at run time ([`super::tree::WideTree`]). The 4-wide tree ([`Bvh4`]) is
+//! the same code at half the width, kept to measure one against the other. Wider nodes mean
+//! fewer levels, and with them fewer loop iterations, stack entries and dependent loads per
+//! ray. The binary BVH stays for the debugger's level view.
 //!
 //! # The slab test
 //!
@@ -26,7 +27,7 @@
 //!   take one cycle where the float ones take three or four. Lines (intervals starting below
 //!   zero) are tested with float max, min and compare.
 
-use wide::{f32x4, f32x8, i32x4, i32x8};
+use wide::{f32x4, f32x8, f32x16, i32x4, i32x8, i32x16};
 
 use super::{Bvh, BvhError, BvhHit, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::Aabb;
@@ -36,9 +37,10 @@ use crate::math::Vec3A;
 use crate::ray::Ray;
 
 /// The instruction set a traversal runs on, chosen at run time so the binary still runs on any
-/// x86-64. Both give bit-identical hits: the AVX2 variant is the same traversal compiled for
+/// x86-64. All give bit-identical hits: the AVX2 variant is the same traversal compiled for
 /// AVX2, FMA and BMI, with the 8-wide node and two-block triangle tests written in `std::arch`
-/// doing the portable tests' operations lane for lane.
+/// doing the portable tests' operations lane for lane; the AVX-512 variant adds the 16-wide
+/// node test in 512-bit registers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SimdLevel {
     /// The target's baseline (SSE2 on x86-64, NEON on AArch64, scalar elsewhere).
@@ -46,6 +48,8 @@ pub enum SimdLevel {
     Portable,
     /// x86-64 with AVX2, FMA, BMI1/2 and LZCNT (x86-64-v3).
     Avx2,
+    /// x86-64-v3 and AVX-512 F, VL, BW and DQ (x86-64-v4).
+    Avx512,
 }
 
 impl SimdLevel {
@@ -59,6 +63,13 @@ impl SimdLevel {
             && std::arch::is_x86_feature_detected!("lzcnt")
             && std::arch::is_x86_feature_detected!("popcnt")
         {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+                && std::arch::is_x86_feature_detected!("avx512bw")
+                && std::arch::is_x86_feature_detected!("avx512dq")
+            {
+                return SimdLevel::Avx512;
+            }
             return SimdLevel::Avx2;
         }
         SimdLevel::Portable
@@ -80,14 +91,14 @@ pub(super) const MAX_BLOCKS: u32 = 16;
 const ROWS: usize = 6;
 
 /// One node: `W` child boxes and `W` child references; 128 bytes (two cache lines) at
-/// `W = 4`, 256 bytes (four) at `W = 8`.
+/// `W = 4`, 256 bytes (four) at `W = 8`, 448 bytes (seven) at `W = 16`.
 ///
-/// | field | bytes (W = 4 / W = 8) | meaning |
+/// | field | bytes (W = 4 / 8 / 16) | meaning |
 /// |---|---|---|
-/// | `bounds[0..3]` | 0..48 / 0..96 | lower x, y, z corners of the `W` child boxes, one row per axis |
-/// | `bounds[3..6]` | 48..96 / 96..192 | upper x, y, z corners |
-/// | `child` | 96..112 / 192..224 | per child: [`EMPTY`]; a node index; a packed leaf: bits 31 and 30 set, bits 26..30 the block count - 1, bits 0..26 the first [`Tri4`] block; or a range leaf: bit 31 set, bits 0..30 an index into [`WideBvh::ranges`] |
-/// | padding | 112..128 / 224..256 | keeps nodes aligned to cache lines |
+/// | `bounds[0..3]` | 0..48 / 0..96 / 0..192 | lower x, y, z corners of the `W` child boxes, one row per axis |
+/// | `bounds[3..6]` | 48..96 / 96..192 / 192..384 | upper x, y, z corners |
+/// | `child` | 96..112 / 192..224 / 384..448 | per child: [`EMPTY`]; a node index; a packed leaf: bits 31 and 30 set, bits 26..30 the block count - 1, bits 0..26 the first [`Tri4`] block; or a range leaf: bit 31 set, bits 0..30 an index into [`WideBvh::ranges`] |
+/// | padding | 112..128 / 224..256 / none | keeps nodes aligned to cache lines |
 ///
 /// A box row per axis and side lets the slab test load, for each axis, just the plane the
 /// ray enters by and the one it leaves by. Empty slots have boxes at `+inf` that no ray with
@@ -103,6 +114,7 @@ pub struct WideNode<const W: usize> {
 
 const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
 const _: () = assert!(std::mem::size_of::<WideNode<8>>() == 256);
+const _: () = assert!(std::mem::size_of::<WideNode<16>>() == 448);
 
 impl<const W: usize> WideNode<W> {
     pub(super) fn empty() -> Self {
@@ -282,11 +294,18 @@ pub struct WideBvh<const W: usize> {
 
 /// The 4-wide BVH (128-byte nodes, tested with 4-lane vectors).
 pub type Bvh4 = WideBvh<4>;
-/// The 8-wide BVH that rendering traverses (256-byte nodes, one AVX2 test per step on x86-64).
+/// The 8-wide BVH (256-byte nodes, one AVX2 test per step on x86-64): what rendering
+/// traverses where the CPU lacks AVX-512.
 pub type Bvh8 = WideBvh<8>;
+/// The 16-wide BVH (448-byte nodes, one AVX-512 test per step): what rendering traverses
+/// where the CPU has AVX-512. Its traversals need [`WideBvh::fits_stack`] (a query on a
+/// deeper tree would overflow the fixed stack and panic); [`super::tree::WideTree`] checks.
+pub type Bvh16 = WideBvh<16>;
 
 /// Deepest traversal stack: `W - 1` pushes per level of a tree at most [`super::MAX_DEPTH`]
-/// deep, for the widest tree.
+/// deep, for the 8-wide tree (whose depth is at most the binary tree's). A 16-wide tree is
+/// used only where its own depth fits ([`WideBvh::fits_stack`]; every course mesh's does,
+/// with room to spare): a stack sized for the worst 16-wide tree was a page more per query.
 const STACK: usize = 7 * super::MAX_DEPTH + 8;
 
 /// A fixed-capacity stack on the machine stack. Its storage is left uninitialised: zeroing
@@ -481,6 +500,7 @@ macro_rules! lanes_impl {
 
 lanes_impl!(f32x4, 4);
 lanes_impl!(f32x8, 8);
+lanes_impl!(f32x16, 16);
 
 /// The slab test's last steps (see the module documentation) on the portable vectors, lane
 /// by lane: from each lane's distances to the planes it enters by (`near`) and leaves by
@@ -517,6 +537,7 @@ macro_rules! slab_impl {
 
 slab_impl!(f32x4, i32x4, 4);
 slab_impl!(f32x8, i32x8, 8);
+slab_impl!(f32x16, i32x16, 16);
 
 macro_rules! portable_node_test {
     ($name:ident, $w:literal, $v:ty) => {
@@ -563,6 +584,7 @@ macro_rules! portable_node_test {
 
 portable_node_test!(Portable4, 4, f32x4);
 portable_node_test!(Portable8, 8, f32x8);
+portable_node_test!(Portable16, 16, f32x16);
 
 /// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step.
 #[cfg(target_arch = "x86_64")]
@@ -688,12 +710,91 @@ impl NodeTest<8> for Avx2Node8 {
     }
 }
 
-/// The node tests of one width: the portable one and the one used at [`SimdLevel::Avx2`].
+/// The 16-wide slab test in AVX-512 (`std::arch`): one 512-bit instruction per step, with
+/// the 8-wide AVX2 test's triangle test.
+#[cfg(target_arch = "x86_64")]
+pub struct Avx512Node16 {
+    /// The leaves' test (and its ray splats).
+    pair: Avx2Node8,
+    inv: [std::arch::x86_64::__m512; 3],
+    oinv: [std::arch::x86_64::__m512; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl NodeTest<16> for Avx512Node16 {
+    #[inline(always)]
+    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+        use std::arch::x86_64::_mm512_set1_ps as splat;
+        let (near, far) = planes(inv);
+        let oinv = ray.origin * inv;
+        // SAFETY: the caller vouches for AVX-512 (and with it AVX2).
+        unsafe {
+            Avx512Node16 {
+                pair: <Avx2Node8 as NodeTest<8>>::new(ray, inv),
+                inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
+                oinv: [splat(oinv.x), splat(oinv.y), splat(oinv.z)],
+                near,
+                far,
+            }
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<16>, t_min: f32, t_max: f32) -> ([f32; 16], u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller vouches for AVX-512 F; nodes are 64-byte aligned and each row is
+        // 64 bytes, as the aligned loads need; `d` holds sixteen floats.
+        unsafe {
+            // The portable test's operations, in its order: identical results.
+            let t = |row: usize, a: usize| {
+                _mm512_fmsub_ps(_mm512_load_ps(n.bounds[row].as_ptr()), self.inv[a], self.oinv[a])
+            };
+            let t_max = _mm512_set1_ps(t_max.min(f32::MAX));
+            let mut d = [0.0f32; 16];
+            if FORWARD {
+                let i = _mm512_castps_si512;
+                let near = _mm512_max_epi32(
+                    _mm512_max_epi32(i(t(self.near[0], 0)), i(t(self.near[1], 1))),
+                    _mm512_max_epi32(i(t(self.near[2], 2)), i(_mm512_set1_ps(t_min + 0.0))),
+                );
+                let far = _mm512_min_epi32(
+                    _mm512_min_epi32(i(t(self.far[0], 0)), i(t(self.far[1], 1))),
+                    _mm512_min_epi32(i(t(self.far[2], 2)), i(t_max)),
+                );
+                _mm512_storeu_ps(d.as_mut_ptr(), _mm512_castsi512_ps(near));
+                return (d, u32::from(_mm512_cmple_epi32_mask(near, far)));
+            }
+            let near = _mm512_max_ps(
+                _mm512_max_ps(t(self.near[0], 0), t(self.near[1], 1)),
+                _mm512_max_ps(t(self.near[2], 2), _mm512_set1_ps(t_min.max(f32::MIN))),
+            );
+            let far = _mm512_min_ps(
+                _mm512_min_ps(t(self.far[0], 0), t(self.far[1], 1)),
+                _mm512_min_ps(t(self.far[2], 2), t_max),
+            );
+            _mm512_storeu_ps(d.as_mut_ptr(), near);
+            (d, u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far)))
+        }
+    }
+
+    #[inline(always)]
+    unsafe fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        // SAFETY: as for `new`.
+        unsafe { self.pair.intersect_pair(r, a, b, t_min, t_max) }
+    }
+}
+
+/// The node tests of one width: the portable one and those used at [`SimdLevel::Avx2`] and
+/// [`SimdLevel::Avx512`].
 pub trait NodeWidth<const W: usize> {
     /// The baseline test.
     type Portable: NodeTest<W>;
     /// The test compiled for AVX2 (the portable one, where no better exists).
     type Avx2: NodeTest<W>;
+    /// The test compiled for AVX-512 (the AVX2 one, where no better exists).
+    type Avx512: NodeTest<W>;
 }
 
 /// Names the node tests of width `W` (see [`NodeWidth`]).
@@ -702,6 +803,7 @@ pub struct Lanes<const W: usize>;
 impl NodeWidth<4> for Lanes<4> {
     type Portable = Portable4;
     type Avx2 = Portable4;
+    type Avx512 = Portable4;
 }
 
 impl NodeWidth<8> for Lanes<8> {
@@ -710,11 +812,23 @@ impl NodeWidth<8> for Lanes<8> {
     type Avx2 = Avx2Node8;
     #[cfg(not(target_arch = "x86_64"))]
     type Avx2 = Portable8;
+    type Avx512 = Self::Avx2;
+}
+
+impl NodeWidth<16> for Lanes<16> {
+    type Portable = Portable16;
+    type Avx2 = Portable16;
+    #[cfg(target_arch = "x86_64")]
+    type Avx512 = Avx512Node16;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Avx512 = Portable16;
 }
 
 type PortableTest<const W: usize> = <Lanes<W> as NodeWidth<W>>::Portable;
 #[cfg(target_arch = "x86_64")]
 type Avx2Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx2;
+#[cfg(target_arch = "x86_64")]
+type Avx512Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx512;
 
 /// Sort traversal entries farthest first by their entry distance `near` (insertion sort: at
 /// most eight); single rays and packets both order their children with it.
@@ -797,6 +911,29 @@ where
         let _ = child;
     }
 
+    /// Levels of nodes (0 for an empty tree).
+    pub fn depth(&self) -> usize {
+        let mut depth = vec![0usize; self.nodes.len()];
+        if let Some(d) = depth.first_mut() {
+            *d = 1;
+        }
+        // Children come after their parents (the collapse appends them depth-first).
+        for i in 0..self.nodes.len() {
+            for &c in &self.nodes[i].child {
+                if c != EMPTY && c & LEAF_BIT == 0 {
+                    depth[c as usize] = depth[i] + 1;
+                }
+            }
+        }
+        depth.into_iter().max().unwrap_or(0)
+    }
+
+    /// Whether the traversals' fixed stack holds every entry this tree can need: `W - 1` per
+    /// level. Always so up to eight children a node (the depth is at most the binary tree's).
+    pub fn fits_stack(&self) -> bool {
+        (W - 1) * self.depth() + W <= STACK
+    }
+
     /// The traversal variant in use.
     pub fn simd_level(&self) -> SimdLevel {
         self.simd
@@ -826,11 +963,29 @@ where
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return None;
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.simd == SimdLevel::Avx2 {
-            // SAFETY: `simd` is Avx2 only where the CPU has those features (see the field).
-            return unsafe { self.intersect_avx2(ray, prims, obs) };
+        // SAFETY: `simd` names only a level the CPU has (see the field); the portable test
+        // needs no CPU feature.
+        unsafe {
+            match self.simd {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.intersect_avx512(ray, prims, obs),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.intersect_avx2(ray, prims, obs),
+                _ => self.intersect_portable(ray, prims, obs),
+            }
         }
+    }
+
+    /// The portable traversal, kept out of line: inlined into every caller beside the SIMD
+    /// dispatch, its code and its stack array made those callers' frames several pages deep
+    /// on machines that never take it.
+    #[inline(never)]
+    fn intersect_portable<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
         // SAFETY: the portable test needs no CPU feature.
         unsafe { self.intersect_with::<PortableTest<W>, P, O>(ray, prims, obs) }
     }
@@ -845,6 +1000,18 @@ where
     ) -> Option<BvhHit> {
         // SAFETY: this function runs only where the CPU has AVX2.
         unsafe { self.intersect_with::<Avx2Test<W>, P, O>(ray, prims, obs) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn intersect_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: this function runs only where the CPU has AVX-512.
+        unsafe { self.intersect_with::<Avx512Test<W>, P, O>(ray, prims, obs) }
     }
 
     /// The closest-hit traversal with node test `T` (the CPU must have its features),
@@ -997,11 +1164,22 @@ where
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return false;
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.simd == SimdLevel::Avx2 {
-            // SAFETY: `simd` is Avx2 only where the CPU has those features (see the field).
-            return unsafe { self.occluded_avx2(ray, prims) };
+        // SAFETY: `simd` names only a level the CPU has (see the field); the portable test
+        // needs no CPU feature.
+        unsafe {
+            match self.simd {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.occluded_avx512(ray, prims),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.occluded_avx2(ray, prims),
+                _ => self.occluded_portable(ray, prims),
+            }
         }
+    }
+
+    /// The portable any-hit traversal, kept out of line (see [`WideBvh::intersect_counted`]).
+    #[inline(never)]
+    fn occluded_portable<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
         // SAFETY: the portable test needs no CPU feature.
         unsafe { self.occluded_with::<PortableTest<W>, P>(ray, prims) }
     }
@@ -1011,6 +1189,13 @@ where
     unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
         // SAFETY: this function runs only where the CPU has AVX2.
         unsafe { self.occluded_with::<Avx2Test<W>, P>(ray, prims) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn occluded_avx512<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: this function runs only where the CPU has AVX-512.
+        unsafe { self.occluded_with::<Avx512Test<W>, P>(ray, prims) }
     }
 
     /// The any-hit traversal with node test `T` (the CPU must have its features), compiled

@@ -3,7 +3,7 @@
 use super::{Hit, Mesh, Motion, PrimRef, SceneSphere};
 use crate::bvh::packet::PACKET;
 use crate::bvh::shadow::Occluders;
-use crate::bvh::{BuildParams, Bvh, Bvh8, Primitives, TraversalObserver};
+use crate::bvh::{BuildParams, Bvh, Primitives, TraversalObserver, WideTree};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -54,11 +54,11 @@ impl Shape {
 /// The BVH and the shapes it indexes, stored in BVH order so a leaf's shapes are contiguous.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
-    /// The binary hierarchy: what the debugger's level view draws, and what [`Bvh8`] is
+    /// The binary hierarchy: what the debugger's level view draws, and what `wide` is
     /// collapsed from.
     pub bvh: Bvh,
-    /// The 8-wide hierarchy rendering traverses.
-    pub wide: Bvh8,
+    /// The wide hierarchy rendering traverses (8 or 16 children a node, for the CPU).
+    pub wide: WideTree,
     /// Shapes in BVH slot order.
     pub shapes: Vec<Shape>,
     /// Moving shapes, referenced by [`Shape::Moving`].
@@ -125,7 +125,7 @@ impl Geometry {
                 order.iter().map(both).unzip()
             };
         }
-        geometry.wide = Bvh8::from_binary(&geometry.bvh, &geometry);
+        geometry.wide = WideTree::from_binary(&geometry.bvh, &geometry);
         geometry
     }
 
@@ -156,8 +156,10 @@ impl Geometry {
         }
     }
 
-    /// Closest hit, with its global primitive id (through the 8-wide BVH).
-    #[inline]
+    /// Closest hit, with its global primitive id (through the wide BVH). Kept out of line:
+    /// inlined into the integrator's shading, the tree's dispatch on width and instruction
+    /// set made the Cornell box render 10% slower.
+    #[inline(never)]
     pub fn intersect<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         let hit = self.wide.intersect_counted(ray, self, stats);
         self.scene_hit(hit)
@@ -176,8 +178,9 @@ impl Geometry {
         self.scene_hit(hit)
     }
 
-    /// Whether anything blocks `ray` (through the 8-wide BVH).
-    #[inline]
+    /// Whether anything blocks `ray` (through the wide BVH). Out of line, as
+    /// [`Geometry::intersect`].
+    #[inline(never)]
     pub fn occluded(&self, ray: &Ray) -> bool {
         self.wide.occluded(ray, self)
     }
