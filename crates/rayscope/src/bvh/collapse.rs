@@ -278,11 +278,7 @@ where
     /// Collapse a binary BVH by the surface area heuristic (see the module documentation).
     /// Leaves of static triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
     pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
-        let simd = match SimdLevel::detect() {
-            SimdLevel::Avx512 if W < 16 => SimdLevel::Avx2,
-            l => l,
-        };
-        let mut out = WideBvh { simd, ..WideBvh::default() };
+        let mut out = WideBvh { simd: SimdLevel::detect(), ..WideBvh::default() };
         let Some(root) = bin.nodes.first() else { return out };
         out.nodes.push(WideNode::empty());
         if root.is_leaf() {

@@ -6,7 +6,8 @@
 //! ray pays for those nodes' loads and, above all, for their data-dependent branches (which
 //! children were hit, in which order); a packet pays once. Inner nodes are tested against the
 //! whole packet at once by interval arithmetic (the children in the vector lanes, eight at a
-//! time, as for one ray): with a shared origin, each slab distance `(plane - o) * inv` is bounded over the
+//! time, as for one ray): with a shared origin, each slab distance `(plane - o) * inv` is
+//! bounded over the
 //! packet by the smallest and largest inverse direction, so a child the packet test rejects is
 //! missed by every ray. A leaf's box is then tested per ray, exactly as the single-ray
 //! traversal tests it, and only the rays that hit it intersect its triangles, each with the
@@ -219,25 +220,18 @@ impl Avx512PacketTest {
     }
 }
 
-/// The packet tests of one node width, by [`SimdLevel`] (as [`NodeWidth`] is for single rays).
+/// The widths packets traverse (8 and 16) and their inner-node test at [`SimdLevel::Avx512`];
+/// at the other levels it is [`PortablePacketTest`] (compiled for the level).
 pub trait PacketWidth<const W: usize> {
-    /// The baseline test.
-    type Portable: PacketNodeTest<W>;
-    /// The test compiled for AVX2.
-    type Avx2: PacketNodeTest<W>;
     /// The test compiled for AVX-512.
     type Avx512: PacketNodeTest<W>;
 }
 
 impl PacketWidth<8> for Lanes<8> {
-    type Portable = PortablePacketTest;
-    type Avx2 = PortablePacketTest;
     type Avx512 = PortablePacketTest;
 }
 
 impl PacketWidth<16> for Lanes<16> {
-    type Portable = PortablePacketTest;
-    type Avx2 = PortablePacketTest;
     #[cfg(target_arch = "x86_64")]
     type Avx512 = Avx512PacketTest;
     #[cfg(not(target_arch = "x86_64"))]
@@ -285,9 +279,7 @@ where
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     unsafe fn packet_avx2<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
         // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe {
-            self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, <Lanes<W> as PacketWidth<W>>::Avx2, P>(rays, prims)
-        }
+        unsafe { self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, PortablePacketTest, P>(rays, prims) }
     }
 
     /// [`WideBvh::intersect_packet`] compiled for AVX-512, the packet's set-up included.

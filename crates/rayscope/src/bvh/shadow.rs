@@ -229,21 +229,20 @@ impl Occluders {
     /// that callers holding a tree of either width inline one copy of this hot loop).
     #[inline]
     pub fn blocks<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        let occ = self;
-        if occ.is_empty() || !ray_is_finite(ray) {
+        if self.is_empty() || !ray_is_finite(ray) {
             return false;
         }
         let (t_min, t_max) = (ray.t.min, ray.t.max);
         let lanes = RayLanes::new(ray);
         // Unused lanes of the last block hold degenerate triangles, which no ray hits.
-        if occ.blocks[..occ.triangles.div_ceil(4)].iter().any(|block| block.intersect(&lanes, t_min, t_max).0 != 0) {
+        if self.blocks[..self.triangles.div_ceil(4)].iter().any(|block| block.intersect(&lanes, t_min, t_max).0 != 0) {
             return true;
         }
-        if occ.leaves == 0 {
+        if self.leaves == 0 {
             return false;
         }
         let inv = safe_inv_dir(ray.dir);
-        for (b, r) in occ.boxes[..occ.leaves].iter().zip(&occ.ranges[..occ.leaves]) {
+        for (b, r) in self.boxes[..self.leaves].iter().zip(&self.ranges[..self.leaves]) {
             // The traversal's own box test, so the same leaves are opened.
             if b.hit_distance(ray.origin, inv, t_min, t_max.min(f32::MAX)) != f32::INFINITY
                 && (r.start..r.start + r.count).any(|slot| prims.intersect(slot, ray, t_min, t_max).is_some())
