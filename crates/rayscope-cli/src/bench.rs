@@ -131,7 +131,7 @@ fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let simd =
-        format!("{:?}, {}-wide BVH", rayscope::bvh::wide::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
+        format!("{:?}, {}-wide BVH", rayscope::bvh::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
     Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup, simd }
 }
 

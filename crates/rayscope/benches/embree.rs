@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use embree::sys;
 use rayon::prelude::*;
-use rayscope::bvh::packet::PACKET;
+use rayscope::bvh::PACKET;
 use rayscope::camera::CameraDesc;
 use rayscope::material::Material;
 use rayscope::math::Vec3A;
@@ -314,7 +314,7 @@ fn main() {
     if wanted.contains(&"torus") {
         soups.push(procedural(1000, 500));
     }
-    println!("Our traversal: {:?} (chosen at run time).\n", rayscope::bvh::wide::SimdLevel::detect());
+    println!("Our traversal: {:?} (chosen at run time).\n", rayscope::bvh::SimdLevel::detect());
     println!(
         "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | camera, packets of 8 | incoherent | any-hit (shadow) | hits agree |"
     );

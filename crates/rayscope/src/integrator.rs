@@ -2,7 +2,7 @@
 //! or soft from sampled area lights), recursive mirror or glossy reflection weighted by `ks`,
 //! and transparency blended by `1 - d`.
 
-use crate::bvh::shadow::Occluders;
+use crate::bvh::Occluders;
 use crate::light::LightSample;
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;

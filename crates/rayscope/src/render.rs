@@ -7,8 +7,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::bvh::TraversalStats;
-use crate::bvh::packet::PACKET;
+use crate::bvh::{PACKET, TraversalStats};
 use crate::camera::{Camera, CameraMotion, RayGenerator};
 use crate::film::{Film, FloatImage};
 use crate::filter::PixelFilter;

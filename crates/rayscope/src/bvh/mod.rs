@@ -21,10 +21,12 @@ pub mod wide;
 
 pub use build::BuildParams;
 pub use node::BvhNode;
+pub use packet::PACKET;
+pub use shadow::Occluders;
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
 pub use tree::WideTree;
 pub use validate::BvhError;
-pub use wide::{Bvh4, Bvh8, Bvh16, WideBvh};
+pub use wide::{Bvh4, Bvh8, Bvh16, SimdLevel, WideBvh};
 
 use crate::geometry::PrimHit;
 use crate::ray::Ray;

@@ -11,8 +11,7 @@ use std::time::{Duration, Instant};
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape, SlotInfo};
 
-use crate::bvh::shadow::Occluders;
-use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
+use crate::bvh::{Occluders, BvhStats, NoObserver, NodeLog, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
 use crate::light::Light;
@@ -247,11 +246,11 @@ impl Scene {
         self.geometry.intersect(ray, &mut NoObserver)
     }
 
-    /// The closest hits of up to [`crate::bvh::packet::PACKET`] rays (camera rays of
+    /// The closest hits of up to [`crate::bvh::PACKET`] rays (camera rays of
     /// neighbouring pixels): each is what [`Scene::intersect`] gives, found in one traversal
     /// when the rays share an origin.
     #[inline]
-    pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; crate::bvh::packet::PACKET] {
+    pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; crate::bvh::PACKET] {
         self.geometry.intersect_packet(rays)
     }
 
