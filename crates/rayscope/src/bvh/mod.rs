@@ -1,32 +1,25 @@
 //! A flat binary BVH: binned-SAH build ([`build`]), closest-hit and any-hit traversal
 //! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]); and the wide
-//! trees that rendering traverses ([`wide`]; its width chosen for the CPU in [`tree`]),
-//! collapsed from the binary one by the surface area heuristic ([`collapse`]), with packets of
-//! camera rays ([`packet`]) and grouped shadow rays ([`shadow`]).
+//! trees that rendering traverses ([`wide`]; its width chosen for the CPU in [`wide::tree`]),
+//! collapsed from the binary one by the surface area heuristic ([`wide::collapse`]), with
+//! packets of camera rays ([`wide::packet`]) and grouped shadow rays ([`wide::shadow`]).
 //!
 //! The BVH knows only boxes. Primitives are reached through the [`Primitives`] trait by their
 //! position in [`Bvh::prim_indices`] order, so the owner can store them in that order and a
 //! leaf's primitives sit next to each other in memory.
 
 pub mod build;
-pub mod collapse;
 pub mod node;
-pub mod packet;
-pub mod shadow;
 pub mod stats;
 pub mod traverse;
-pub mod tree;
 pub mod validate;
 pub mod wide;
 
 pub use build::BuildParams;
 pub use node::BvhNode;
-pub use packet::PACKET;
-pub use shadow::Occluders;
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
-pub use tree::WideTree;
 pub use validate::BvhError;
-pub use wide::{Bvh4, Bvh8, Bvh16, SimdLevel, WideBvh};
+pub use wide::{Bvh4, Bvh8, Bvh16, Occluders, PACKET, SimdLevel, WideBvh, WideTree};
 
 use crate::geometry::PrimHit;
 use crate::ray::Ray;

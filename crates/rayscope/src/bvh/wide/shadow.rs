@@ -8,11 +8,11 @@
 //! primitive that blocks one is on the list, and each listed triangle or leaf is tested with
 //! the traversal's own triangle and box tests.
 
-use super::Primitives;
-use super::wide::{
+use super::{
     EMPTY, LEAF_BIT, Lanes, LeafRange, NodeWidth, RayLanes, Stack, Tri4, WideBvh, is_packed, packed_blocks,
     range_index, ray_is_finite,
 };
+use crate::bvh::Primitives;
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{Aabb, Triangle};
 use crate::math::Vec3A;

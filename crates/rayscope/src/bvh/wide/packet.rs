@@ -20,11 +20,11 @@
 
 use wide::f32x8;
 
-use super::wide::{
+use super::{
     EMPTY, LEAF_BIT, Lanes, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Slab, Stack, WideBvh, WideNode,
     fused_mul_sub, planes, ray_is_finite, sort_far_to_near,
 };
-use super::{BvhHit, NoObserver, Primitives};
+use crate::bvh::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;
 use crate::ray::Ray;

@@ -3,7 +3,7 @@
 //! 16-wide tree ([`Bvh16`]) where the CPU has AVX-512, whose nodes are then tested with one
 //! 512-bit instruction per step, and the 8-wide tree ([`Bvh8`]) elsewhere: with AVX2, one
 //! 256-bit instruction per step, else the portable `wide` vectors (two SSE or NEON halves).
-//! The choice is made at run time ([`super::tree::WideTree`]). The 4-wide tree ([`Bvh4`]) is
+//! The choice is made at run time ([`tree::WideTree`]). The 4-wide tree ([`Bvh4`]) is
 //! the same code at half the width, kept to measure one against the other. Wider nodes mean
 //! fewer levels, and with them fewer loop iterations, stack entries and dependent loads per
 //! ray. The binary BVH stays for the debugger's level view.
@@ -26,6 +26,15 @@
 //!   (a box behind the ray) reads as negative and is rejected; integer max, min and compare
 //!   take one cycle where the float ones take three or four. Lines (intervals starting below
 //!   zero) are tested with float max, min and compare.
+
+pub mod collapse;
+pub mod packet;
+pub mod shadow;
+pub mod tree;
+
+pub use packet::PACKET;
+pub use shadow::Occluders;
+pub use tree::WideTree;
 
 use wide::{f32x4, f32x8, f32x16, i32x4, i32x8, i32x16};
 
@@ -299,7 +308,7 @@ pub type Bvh4 = WideBvh<4>;
 pub type Bvh8 = WideBvh<8>;
 /// The 16-wide BVH (448-byte nodes, one AVX-512 test per step): what rendering traverses
 /// where the CPU has AVX-512. Its traversals need [`WideBvh::fits_stack`] (a query on a
-/// deeper tree would overflow the fixed stack and panic); [`super::tree::WideTree`] checks.
+/// deeper tree would overflow the fixed stack and panic); [`tree::WideTree`] checks.
 pub type Bvh16 = WideBvh<16>;
 
 /// Deepest traversal stack: `W - 1` pushes per level of a tree at most [`super::MAX_DEPTH`]

@@ -8,8 +8,8 @@
 
 use super::packet::PacketHits;
 use super::shadow::Occluders;
-use super::wide::{Bvh8, Bvh16, SimdLevel};
-use super::{Bvh, BvhError, BvhHit, Primitives, TraversalObserver};
+use super::{Bvh8, Bvh16, SimdLevel};
+use crate::bvh::{Bvh, BvhError, BvhHit, Primitives, TraversalObserver};
 use crate::geometry::Aabb;
 use crate::math::Vec3A;
 use crate::ray::Ray;
