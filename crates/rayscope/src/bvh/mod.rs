@@ -1,8 +1,9 @@
-//! A flat binary BVH: binned-SAH build ([`build`]), closest-hit and any-hit traversal
-//! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]); and the wide
-//! trees that rendering traverses ([`wide`]; its width chosen for the CPU in [`wide::tree`]),
-//! collapsed from the binary one by the surface area heuristic ([`wide::collapse`]), with
-//! packets of camera rays ([`wide::packet`]) and grouped shadow rays ([`wide::shadow`]).
+//! Bounding volume hierarchies. The binary BVH, in one flat array: its node layout
+//! ([`node`]), binned-SAH build ([`build`]), closest-hit and any-hit traversal
+//! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]). It serves the
+//! debugger's level view, and the wide trees that rendering traverses are collapsed from it
+//! ([`wide`]: the collapse, the layouts, the width chosen for the CPU, the SIMD kernels, the
+//! traversals, camera-ray packets and grouped shadow rays; its documentation maps its files).
 //!
 //! The BVH knows only boxes. Primitives are reached through the [`Primitives`] trait by their
 //! position in [`Bvh::prim_indices`] order, so the owner can store them in that order and a

@@ -10,10 +10,10 @@
 //! its subtree from a parent as at most `i` children, each a wide node or a leaf holding a
 //! whole subtree's primitives. On the dragon it makes half as many nodes, most of them full.
 
-use super::{
-    BLOCK_BITS, LEAF_BIT, Lanes, LeafRange, MAX_BLOCKS, NodeWidth, SimdLevel, Tri4, WideBvh, WideNode, is_packed,
-    packed_ref, range_ref,
-};
+use super::child::{BLOCK_BITS, LEAF_BIT, MAX_BLOCKS, is_packed, packed_ref, range_ref};
+use super::kernels::{Lanes, NodeWidth};
+use super::layout::{LeafRange, Tri4, WideNode};
+use super::{SimdLevel, WideBvh};
 use wide::f32x8;
 
 use crate::bvh::{Bvh, Primitives};
@@ -347,7 +347,7 @@ where
     fn append(&mut self, part: WideBvh<W>) -> u32 {
         let (nodes, blocks, ranges) = (self.nodes.len() as u32, self.blocks.len() as u32, self.ranges.len() as u32);
         let moved = |c: u32| {
-            if c == super::EMPTY {
+            if c == super::layout::EMPTY {
                 c
             } else if is_packed(c) {
                 // The caller checked that every block index fits in BLOCK_BITS.

@@ -20,10 +20,12 @@
 
 use wide::f32x8;
 
-use super::{
-    EMPTY, LEAF_BIT, Lanes, NodeTest, NodeWidth, OneRay, RayLanes, SimdLevel, Slab, Stack, WideBvh, WideNode,
-    fused_mul_sub, planes, ray_is_finite, sort_far_to_near,
-};
+use super::child::LEAF_BIT;
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, fused_mul_sub, planes};
+use super::layout::{EMPTY, WideNode};
+use super::stack::Stack;
+use super::traverse::{OneRay, ray_is_finite, sort_far_to_near};
+use super::{SimdLevel, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;

@@ -8,10 +8,12 @@
 //! primitive that blocks one is on the list, and each listed triangle or leaf is tested with
 //! the traversal's own triangle and box tests.
 
-use super::{
-    EMPTY, LEAF_BIT, Lanes, LeafRange, NodeWidth, RayLanes, Stack, Tri4, WideBvh, is_packed, packed_blocks,
-    range_index, ray_is_finite,
-};
+use super::WideBvh;
+use super::child::{LEAF_BIT, is_packed, packed_blocks, range_index};
+use super::kernels::{Lanes, NodeWidth, RayLanes};
+use super::layout::{EMPTY, LeafRange, Tri4};
+use super::stack::Stack;
+use super::traverse::ray_is_finite;
 use crate::bvh::Primitives;
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{Aabb, Triangle};

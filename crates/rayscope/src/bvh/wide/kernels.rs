@@ -1,0 +1,313 @@
+//! The SIMD kernels: a ray's slab test against a node's `W` boxes at once ([`NodeTest`]) and
+//! the packed triangle test, on the portable `wide` vectors, and which test each width uses
+//! at each [`super::SimdLevel`] ([`NodeWidth`]). The `std::arch` tests for x86-64 are in `avx.rs`.
+//!
+//! # The slab test
+//!
+//! Every box test of the wide trees (single rays, packets' leaves, any-hit) computes the same
+//! bits, on every instruction set, so that hits never depend on the code path:
+//! - the distance to a plane `p` along axis `a` is `p * inv[a] - o[a] * inv[a]` with one
+//!   rounding (a fused multiply-subtract; `o[a] * inv[a]` is rounded once per ray). Against
+//!   `(p - o[a]) * inv[a]` it takes one instruction where that takes two, on the chain of
+//!   dependent operations that each node visit waits for. [`safe_inv_dir`] makes the inverse
+//!   of a zero direction component a power of two, so that for a ray parallel to a slab
+//!   `o[a] * inv[a]` is exact and so is the sign of every distance;
+//! - when the ray's interval starts at or after zero (every ray the renderer makes), the
+//!   entry distance is the maximum of the three entry planes' distances and the interval
+//!   start, the exit distance the minimum of the exit planes' and the interval end, and the
+//!   box is hit when entry <= exit, all compared as the floats' bit patterns read as signed
+//!   integers. For non-negative floats that order is the float order, and a negative exit
+//!   (a box behind the ray) reads as negative and is rejected; integer max, min and compare
+//!   take one cycle where the float ones take three or four. Lines (intervals starting below
+//!   zero) are tested with float max, min and compare.
+
+use wide::{f32x4, f32x8, f32x16, i32x4, i32x8, i32x16};
+
+#[cfg(target_arch = "x86_64")]
+use super::avx::{Avx2Node8, Avx512Node16};
+use super::{Tri4, WideNode};
+use crate::math::Vec3A;
+use crate::ray::Ray;
+
+/// The ray's data for the packed triangle test, splatted across four lanes once per ray.
+pub struct RayLanes {
+    ox: f32x4,
+    oy: f32x4,
+    oz: f32x4,
+    dx: f32x4,
+    dy: f32x4,
+    dz: f32x4,
+}
+
+impl RayLanes {
+    #[inline(always)]
+    pub(super) fn new(ray: &Ray) -> RayLanes {
+        RayLanes {
+            ox: f32x4::splat(ray.origin.x),
+            oy: f32x4::splat(ray.origin.y),
+            oz: f32x4::splat(ray.origin.z),
+            dx: f32x4::splat(ray.dir.x),
+            dy: f32x4::splat(ray.dir.y),
+            dz: f32x4::splat(ray.dir.z),
+        }
+    }
+}
+
+/// For each axis, the row of [`WideNode::bounds`] the ray enters a box by and the one it
+/// leaves by: the lower plane when the (safe) inverse direction is positive. Since
+/// `(lo - o) * inv <= (hi - o) * inv` for positive `inv` in rounded arithmetic too, this gives
+/// exactly the scalar test's `min`/`max` of the two plane distances with half the work.
+#[inline(always)]
+pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
+    let (nx, ny, nz) = (usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0));
+    ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz])
+}
+
+/// A ray prepared for the slab test of one node's `W` boxes at once.
+pub trait NodeTest<const W: usize>: Sized {
+    /// Prepare `ray` with its safe inverse direction `inv`.
+    ///
+    /// # Safety
+    /// The CPU must have the features the implementation is compiled for.
+    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self;
+
+    /// Entry distances of the node's `W` child boxes and the mask of those hit within
+    /// `[t_min, t_max]`, by the slab test of the module documentation. `FORWARD` says that
+    /// `t_min >= 0` (distances then compare in integer order); the traversals choose it once
+    /// per ray, as a branch per node measured 8% slower.
+    ///
+    /// # Safety
+    /// As for [`NodeTest::new`].
+    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+
+    /// Two packed blocks at once, as the packed 4-wide test (`Tri4::intersect`) gives them:
+    /// lanes 0..4 are `a`'s, 4..8 are `b`'s. Both are tested against `[t_min, t_max]`.
+    ///
+    /// # Safety
+    /// As for [`NodeTest::new`].
+    #[inline(always)]
+    unsafe fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        let (ma, ta, ua, va) = a.intersect(r, t_min, t_max);
+        let (mb, tb, ub, vb) = b.intersect(r, t_min, t_max);
+        let cat = |x: [f32; 4], y: [f32; 4]| [x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3]];
+        (ma | mb << 4, cat(ta, tb), cat(ua, ub), cat(va, vb))
+    }
+}
+
+/// The lanes hit and their `t`, `u`, `v`, for eight triangles.
+pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
+
+/// `a * b - c` with one rounding, lane by lane: the AVX2 test's `vfmsub`, bit for bit. The
+/// `wide` vectors fuse it only where the crate is compiled for FMA (or NEON); elsewhere each
+/// lane goes through `f32::mul_add` (an instruction in code compiled for FMA, else libm's
+/// exact `fmaf`: the baseline traversal is slower, never different).
+#[inline(always)]
+pub(super) fn fused_mul_sub<const N: usize, V>(a: V, b: V, c: V) -> V
+where
+    V: Copy + FloatLanes<N>,
+{
+    if cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon"))) {
+        a.mul_sub_fused(b, c)
+    } else {
+        let (a, b, c) = (a.lanes(), b.lanes(), c.lanes());
+        V::from_lanes(std::array::from_fn(|i| a[i].mul_add(b[i], -c[i])))
+    }
+}
+
+/// The `wide` vector types the portable tests use, as arrays of lanes.
+pub(super) trait FloatLanes<const N: usize> {
+    /// `self * b - c`, fused where `wide` fuses it.
+    fn mul_sub_fused(self, b: Self, c: Self) -> Self;
+    /// The lanes.
+    fn lanes(self) -> [f32; N];
+    /// From lanes.
+    fn from_lanes(l: [f32; N]) -> Self;
+}
+
+macro_rules! lanes_impl {
+    ($v:ty, $n:literal) => {
+        impl FloatLanes<$n> for $v {
+            #[inline(always)]
+            fn mul_sub_fused(self, b: Self, c: Self) -> Self {
+                self.mul_sub(b, c)
+            }
+            #[inline(always)]
+            fn lanes(self) -> [f32; $n] {
+                self.to_array()
+            }
+            #[inline(always)]
+            fn from_lanes(l: [f32; $n]) -> Self {
+                <$v>::new(l)
+            }
+        }
+    };
+}
+
+lanes_impl!(f32x4, 4);
+lanes_impl!(f32x8, 8);
+lanes_impl!(f32x16, 16);
+
+/// The slab test's last steps (see the module documentation) on the portable vectors, lane
+/// by lane: from each lane's distances to the planes it enters by (`near`) and leaves by
+/// (`far`) and its interval, its entry distance and whether it hits. The portable node tests
+/// (a ray against `W` boxes) and the packets' leaf test (eight rays against one box) share it.
+pub(super) trait Slab: Sized {
+    /// Intervals starting at or after zero (`t_min` with -0 made +0): integer order.
+    fn forward(near: [Self; 3], far: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32);
+    /// Any interval (lines): float order.
+    fn lines(near: [Self; 3], far: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32);
+}
+
+macro_rules! slab_impl {
+    ($v:ty, $i:ty, $w:literal) => {
+        impl Slab for $v {
+            #[inline(always)]
+            fn forward([n0, n1, n2]: [Self; 3], [f0, f1, f2]: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32) {
+                let i = |v: $v| -> $i { wide::bytemuck::cast(v) };
+                let near = i(n0).max(i(n1)).max(i(n2).max(i(t_min)));
+                let far = i(f0).min(i(f1)).min(i(f2).min(i(t_max)));
+                let miss = near.simd_gt(far).to_bitmask() as u32;
+                (wide::bytemuck::cast(near), !miss & ((1 << $w) - 1))
+            }
+
+            #[inline(always)]
+            fn lines([n0, n1, n2]: [Self; 3], [f0, f1, f2]: [Self; 3], t_min: Self, t_max: Self) -> (Self, u32) {
+                let near = n0.fast_max(n1).fast_max(n2.fast_max(t_min));
+                let far = f0.fast_min(f1).fast_min(f2.fast_min(t_max));
+                (near, near.simd_le(far).to_bitmask())
+            }
+        }
+    };
+}
+
+slab_impl!(f32x4, i32x4, 4);
+slab_impl!(f32x8, i32x8, 8);
+slab_impl!(f32x16, i32x16, 16);
+
+macro_rules! portable_node_test {
+    ($name:ident, $w:literal, $v:ty) => {
+        /// The slab test on the portable `wide` vectors.
+        pub struct $name {
+            inv: [$v; 3],
+            /// `o * inv` per axis, rounded once.
+            oinv: [$v; 3],
+            near: [usize; 3],
+            far: [usize; 3],
+        }
+
+        impl NodeTest<$w> for $name {
+            #[inline(always)]
+            unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+                let (near, far) = planes(inv);
+                let oinv = ray.origin * inv;
+                $name {
+                    inv: [<$v>::splat(inv.x), <$v>::splat(inv.y), <$v>::splat(inv.z)],
+                    oinv: [<$v>::splat(oinv.x), <$v>::splat(oinv.y), <$v>::splat(oinv.z)],
+                    near,
+                    far,
+                }
+            }
+
+            #[inline(always)]
+            unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
+                let t = |row: usize, a: usize| fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], self.oinv[a]);
+                let near = [t(self.near[0], 0), t(self.near[1], 1), t(self.near[2], 2)];
+                let far = [t(self.far[0], 0), t(self.far[1], 1), t(self.far[2], 2)];
+                // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
+                let t_max = <$v>::splat(t_max.min(f32::MAX));
+                let (near, mask) = if FORWARD {
+                    // `+ 0.0` turns -0 into +0.
+                    <$v>::forward(near, far, <$v>::splat(t_min + 0.0), t_max)
+                } else {
+                    <$v>::lines(near, far, <$v>::splat(t_min.max(f32::MIN)), t_max)
+                };
+                (near.to_array(), mask)
+            }
+        }
+    };
+}
+
+portable_node_test!(Portable4, 4, f32x4);
+portable_node_test!(Portable8, 8, f32x8);
+portable_node_test!(Portable16, 16, f32x16);
+
+impl Tri4 {
+    /// Möller–Trumbore on four triangles at once, with exactly the scalar test's arithmetic
+    /// ([`Triangle::intersect`]), so hits are bit-identical: returns the lanes hit within
+    /// `[t_min, t_max]` and their `t`, `u`, `v`.
+    #[inline(always)]
+    pub(super) fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
+        let l = |a: &[f32; 4]| f32x4::new(*a);
+        let (e1x, e1y, e1z) = (l(&self.e1[0]), l(&self.e1[1]), l(&self.e1[2]));
+        let (e2x, e2y, e2z) = (l(&self.e2[0]), l(&self.e2[1]), l(&self.e2[2]));
+        // p = dir x e2
+        let px = r.dy * e2z - r.dz * e2y;
+        let py = r.dz * e2x - r.dx * e2z;
+        let pz = r.dx * e2y - r.dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv_det = f32x4::ONE / det;
+        // s = origin - v0
+        let sx = r.ox - l(&self.v0[0]);
+        let sy = r.oy - l(&self.v0[1]);
+        let sz = r.oz - l(&self.v0[2]);
+        let u = (sx * px + sy * py + sz * pz) * inv_det;
+        // q = s x e1
+        let qx = sy * e1z - sz * e1y;
+        let qy = sz * e1x - sx * e1z;
+        let qz = sx * e1y - sy * e1x;
+        let v = (r.dx * qx + r.dy * qy + r.dz * qz) * inv_det;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
+        let zero = f32x4::ZERO;
+        // det != 0 and finite: |det| in (0, inf).
+        let ok_det = det.abs().simd_gt(zero) & det.abs().simd_lt(f32x4::splat(f32::INFINITY));
+        let ok_u = u.simd_ge(zero) & u.simd_le(f32x4::ONE);
+        let ok_v = v.simd_ge(zero) & (u + v).simd_le(f32x4::ONE);
+        let ok_t = t.simd_ge(f32x4::splat(t_min)) & t.simd_le(f32x4::splat(t_max));
+        let mask = (ok_det & ok_u & ok_v & ok_t).to_bitmask();
+        (mask, t.to_array(), u.to_array(), v.to_array())
+    }
+}
+
+/// The node tests of one width: the portable one and those used at [`super::SimdLevel::Avx2`] and
+/// [`super::SimdLevel::Avx512`].
+pub trait NodeWidth<const W: usize> {
+    /// The baseline test.
+    type Portable: NodeTest<W>;
+    /// The test compiled for AVX2 (the portable one, where no better exists).
+    type Avx2: NodeTest<W>;
+    /// The test compiled for AVX-512 (the AVX2 one, where no better exists).
+    type Avx512: NodeTest<W>;
+}
+
+/// Names the node tests of width `W` (see [`NodeWidth`]).
+pub struct Lanes<const W: usize>;
+
+impl NodeWidth<4> for Lanes<4> {
+    type Portable = Portable4;
+    type Avx2 = Portable4;
+    type Avx512 = Portable4;
+}
+
+impl NodeWidth<8> for Lanes<8> {
+    type Portable = Portable8;
+    #[cfg(target_arch = "x86_64")]
+    type Avx2 = Avx2Node8;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Avx2 = Portable8;
+    type Avx512 = Self::Avx2;
+}
+
+impl NodeWidth<16> for Lanes<16> {
+    type Portable = Portable16;
+    type Avx2 = Portable16;
+    #[cfg(target_arch = "x86_64")]
+    type Avx512 = Avx512Node16;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Avx512 = Portable16;
+}
+
+pub(super) type PortableTest<const W: usize> = <Lanes<W> as NodeWidth<W>>::Portable;
+#[cfg(target_arch = "x86_64")]
+pub(super) type Avx2Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx2;
+#[cfg(target_arch = "x86_64")]
+pub(super) type Avx512Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx512;

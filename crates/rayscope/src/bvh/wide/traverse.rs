@@ -1,0 +1,459 @@
+//! Closest-hit and any-hit traversal of a wide tree, one ray at a time: the dispatch to the
+//! detected instruction set, the walk down the tree with its fixed stack and prefetches, and
+//! the leaf tests (which packets share).
+
+use super::child::{LEAF_BIT, PACKED_BIT, first_block, is_packed, packed_blocks, range_index};
+use super::kernels::PortableTest;
+#[cfg(target_arch = "x86_64")]
+use super::kernels::{Avx2Test, Avx512Test};
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes};
+use super::layout::{LeafRange, Tri4, WideNode};
+use super::stack::Stack;
+use super::{SimdLevel, WideBvh};
+use crate::bvh::{BvhHit, NoObserver, Primitives, TraversalObserver};
+use crate::geometry::PrimHit;
+use crate::geometry::aabb::safe_inv_dir;
+use crate::ray::Ray;
+
+#[inline(always)]
+pub(super) fn ray_is_finite(ray: &Ray) -> bool {
+    ray.origin.is_finite() && ray.dir.is_finite() && !ray.t.min.is_nan() && !ray.t.max.is_nan()
+}
+
+/// One ray made ready for leaf tests: the ray, its node test (which also runs the two-block
+/// triangle test) and its four-lane splat.
+pub(super) struct OneRay<'a, T> {
+    pub(super) ray: &'a Ray,
+    pub(super) boxes: &'a T,
+    pub(super) lanes: &'a RayLanes,
+}
+
+/// Lanes of a packed test that hit, with their `t`, `u`, `v`.
+struct Hits<'a> {
+    mask: u32,
+    t: &'a [f32],
+    u: &'a [f32],
+    v: &'a [f32],
+}
+
+impl Hits<'_> {
+    /// Keep each hit lane that is closer than the closest so far (`t_max`, `best`), with the
+    /// primitive slot `slot(lane)` (see [`closer`]).
+    #[inline(always)]
+    fn take(self, slot: impl Fn(usize) -> u32, t_max: &mut f32, best: &mut Option<BvhHit>) {
+        let mut mask = self.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let hit = BvhHit { slot: slot(lane), hit: PrimHit { t: self.t[lane], u: self.u[lane], v: self.v[lane] } };
+            closer(hit, t_max, best);
+        }
+    }
+}
+
+/// Keep `hit` as the closest so far if it is nearer than `best` (whose distance is `t_max`),
+/// or as near and in a lower slot. Ties go to the lower slot so that the closest hit does not
+/// depend on the order leaves are visited in: single rays and packets, which visit them in
+/// different orders, report the same primitive where a ray meets a shared edge.
+#[inline(always)]
+fn closer(hit: BvhHit, t_max: &mut f32, best: &mut Option<BvhHit>) {
+    let t = hit.hit.t;
+    if t < *t_max || (t == *t_max && best.is_none_or(|b| hit.slot < b.slot)) {
+        *t_max = t;
+        *best = Some(hit);
+    }
+}
+
+/// Sort traversal entries farthest first by their entry distance `near` (insertion sort: at
+/// most eight); single rays and packets both order their children with it.
+#[inline(always)]
+pub(super) fn sort_far_to_near<E: Copy>(order: &mut [E], near: impl Fn(&E) -> f32) {
+    for i in 1..order.len() {
+        let e = order[i];
+        let mut j = i;
+        while j > 0 && near(&order[j - 1]) < near(&e) {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = e;
+    }
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W>,
+{
+    /// A packed leaf's blocks two at a time, with the lanes of the pair that are the leaf's:
+    /// `0xff`, or `0x0f` for a last odd block, paired with the block after it (or an empty
+    /// one at the end of the array) so that every step is one eight-lane test.
+    #[inline(always)]
+    pub(super) fn block_pairs(&self, leaf: u32) -> impl Iterator<Item = (&Tri4, &Tri4, u32)> {
+        let range = packed_blocks(leaf);
+        let end = range.end;
+        range.step_by(2).map(move |i| {
+            let b = self.blocks.get(i + 1).unwrap_or(&Tri4::EMPTY);
+            (&self.blocks[i], b, if i + 1 < end { 0xff } else { 0x0f })
+        })
+    }
+
+    /// Ask for a child's memory as soon as its box is hit, so that the loads overlap the
+    /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic): a
+    /// node's four lines, or a packed leaf's first pair of blocks (five lines).
+    #[inline(always)]
+    pub(super) fn prefetch(&self, child: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let (p, lines): (*const i8, usize) = if is_packed(child) {
+                (self.blocks.as_ptr().wrapping_add(packed_blocks(child).start).cast(), 5)
+            } else if child & LEAF_BIT == 0 {
+                (self.nodes.as_ptr().wrapping_add(child as usize).cast(), size_of::<WideNode<W>>() / 64)
+            } else {
+                return;
+            };
+            for line in 0..lines {
+                // SAFETY: a prefetch is a hint and never faults, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = child;
+    }
+
+    /// [`WideBvh::prefetch`] choosing the address without branches: the four lines of a node
+    /// or the first four of a packed leaf's blocks (of the first node for a range leaf).
+    #[inline(always)]
+    pub(super) fn prefetch_branchless(&self, child: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let node = self.nodes.as_ptr().wrapping_add((child & !(LEAF_BIT | PACKED_BIT)) as usize) as *const i8;
+            let block = self.blocks.as_ptr().wrapping_add(first_block(child)) as *const i8;
+            let p = if is_packed(child) {
+                block
+            } else if child & LEAF_BIT == 0 {
+                node
+            } else {
+                self.nodes.as_ptr() as *const i8
+            };
+            for line in 0..4 {
+                // SAFETY: a prefetch is a hint and never faults, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = child;
+    }
+
+    /// The closest hit along `ray` within its interval.
+    #[inline]
+    pub fn intersect<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> Option<BvhHit> {
+        self.intersect_counted(ray, prims, &mut NoObserver)
+    }
+
+    /// [`WideBvh::intersect`], reporting the traversal to `obs`.
+    #[inline]
+    pub fn intersect_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // NaN rays would pass every slab test (SIMD min/max pass NaN through); they hit nothing.
+        if self.nodes.is_empty() || !ray_is_finite(ray) {
+            return None;
+        }
+        // SAFETY: `simd` names only a level the CPU has (see the field); the portable test
+        // needs no CPU feature.
+        unsafe {
+            match self.simd {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.intersect_avx512(ray, prims, obs),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.intersect_avx2(ray, prims, obs),
+                _ => self.intersect_portable(ray, prims, obs),
+            }
+        }
+    }
+
+    /// The portable traversal, kept out of line: inlined into every caller beside the SIMD
+    /// dispatch, its code and its stack array made those callers' frames several pages deep
+    /// on machines that never take it.
+    #[inline(never)]
+    fn intersect_portable<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: the portable test needs no CPU feature.
+        unsafe { self.intersect_with::<PortableTest<W>, P, O>(ray, prims, obs) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn intersect_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.intersect_with::<Avx2Test<W>, P, O>(ray, prims, obs) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn intersect_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: this function runs only where the CPU has AVX-512.
+        unsafe { self.intersect_with::<Avx512Test<W>, P, O>(ray, prims, obs) }
+    }
+
+    /// The closest-hit traversal with node test `T` (the CPU must have its features),
+    /// compiled once for each order of the slab test and chosen per ray.
+    #[inline(always)]
+    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: the caller vouches for T's CPU features.
+        unsafe {
+            if ray.t.min >= 0.0 {
+                self.closest::<T, P, O, true>(ray, prims, obs)
+            } else {
+                self.closest::<T, P, O, false>(ray, prims, obs)
+            }
+        }
+    }
+
+    /// [`WideBvh::intersect_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
+    #[inline(always)]
+    unsafe fn closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> Option<BvhHit> {
+        // SAFETY: the caller vouches for T's CPU features.
+        let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
+        let lanes = RayLanes::new(ray);
+        let (t_min, mut t_max) = (ray.t.min, ray.t.max);
+        let mut best = None;
+        // Entries: a child reference and its entry distance, so that entries a closer hit
+        // has since ruled out are dropped when popped.
+        let mut stack: Stack<(u32, f32)> = Stack::new();
+        let mut current = 0u32;
+        loop {
+            if current & LEAF_BIT != 0 {
+                let one = OneRay { ray, boxes: &boxes, lanes: &lanes };
+                // SAFETY: as for `T::new`.
+                unsafe { self.leaf_closest(current, &one, prims, obs, &mut t_max, &mut best) };
+            } else {
+                let node = &self.nodes[current as usize];
+                obs.entered(current);
+                obs.boxes_tested(W as u32);
+                // SAFETY: as for `T::new`.
+                let (near, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        // One child hit (the common case deep in the tree): straight on. A
+                        // branch here measured faster than folding this case into the
+                        // two-child one, most on camera rays, where it predicts well.
+                        current = node.child[first];
+                        continue;
+                    }
+                    if mask & (mask - 1) == 0 {
+                        // Two children hit: the nearer next, without a branch on which it is
+                        // (a branch mispredicts half the time on incoherent rays).
+                        let second = mask.trailing_zeros() as usize;
+                        let a = (node.child[first], near[first]);
+                        let b = (node.child[second], near[second]);
+                        let b_nearer = b.1 < a.1;
+                        let (nearer, farther) = (if b_nearer { b } else { a }, if b_nearer { a } else { b });
+                        self.prefetch_branchless(farther.0);
+                        stack.push(farther);
+                        current = nearer.0;
+                        continue;
+                    }
+                    // Visit the nearest hit child now; push the others, farthest first.
+                    let mut order = [(0u32, 0.0f32); W];
+                    order[0] = (node.child[first], near[first]);
+                    self.prefetch(node.child[first]);
+                    let mut k = 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        order[k] = (node.child[i], near[i]);
+                        self.prefetch(node.child[i]);
+                        k += 1;
+                    }
+                    sort_far_to_near(&mut order[..k], |e| e.1);
+                    for &e in &order[..k - 1] {
+                        stack.push(e);
+                    }
+                    current = order[k - 1].0;
+                    continue;
+                }
+            }
+            loop {
+                let Some((c, entry)) = stack.pop() else { return best };
+                if entry <= t_max {
+                    current = c;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Intersect leaf reference `leaf` with one ray, keeping the closest hit in `t_max` and
+    /// `best` (the single-ray traversal and each ray of a packet share this).
+    ///
+    /// # Safety
+    /// As for [`NodeTest::new`].
+    #[inline(always)]
+    pub(super) unsafe fn leaf_closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        leaf: u32,
+        one: &OneRay<'_, T>,
+        prims: &P,
+        obs: &mut O,
+        t_max: &mut f32,
+        best: &mut Option<BvhHit>,
+    ) {
+        let t_min = one.ray.t.min;
+        if is_packed(leaf) {
+            // Blocks two at a time (one 8-lane test where the CPU has AVX2), a leaf's last odd
+            // block with whatever block follows it, its lanes masked off: leaves of one, two,
+            // three blocks all run the same code, where a separate single-block test after the
+            // pairs was a branch the leaf's size decided (and mispredicted). A lane beyond a
+            // closer hit in the pair's first block is dropped by `closer` rather than by the
+            // test: the same outcome as testing block by block.
+            for (a, b, lanes) in self.block_pairs(leaf) {
+                obs.prim_tested();
+                if lanes == 0xff {
+                    obs.prim_tested();
+                }
+                // SAFETY: the caller vouches for T's CPU features.
+                let (mask, t, u, v) = unsafe { one.boxes.intersect_pair(one.lanes, a, b, t_min, *t_max) };
+                let hits = Hits { mask: mask & lanes, t: &t, u: &u, v: &v };
+                hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
+            }
+        } else {
+            let LeafRange { start, count } = self.ranges[range_index(leaf)];
+            for slot in start..start + count {
+                obs.prim_tested();
+                if let Some(hit) = prims.intersect(slot, one.ray, t_min, *t_max) {
+                    closer(BvhHit { slot, hit }, t_max, best);
+                }
+            }
+        }
+    }
+
+    /// Whether anything blocks `ray` within its interval; stops at the first hit found.
+    #[inline]
+    pub fn occluded<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        if self.nodes.is_empty() || !ray_is_finite(ray) {
+            return false;
+        }
+        // SAFETY: `simd` names only a level the CPU has (see the field); the portable test
+        // needs no CPU feature.
+        unsafe {
+            match self.simd {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.occluded_avx512(ray, prims),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.occluded_avx2(ray, prims),
+                _ => self.occluded_portable(ray, prims),
+            }
+        }
+    }
+
+    /// The portable any-hit traversal, kept out of line (see [`WideBvh::intersect_counted`]).
+    #[inline(never)]
+    fn occluded_portable<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: the portable test needs no CPU feature.
+        unsafe { self.occluded_with::<PortableTest<W>, P>(ray, prims) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: this function runs only where the CPU has AVX2.
+        unsafe { self.occluded_with::<Avx2Test<W>, P>(ray, prims) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+    unsafe fn occluded_avx512<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: this function runs only where the CPU has AVX-512.
+        unsafe { self.occluded_with::<Avx512Test<W>, P>(ray, prims) }
+    }
+
+    /// The any-hit traversal with node test `T` (the CPU must have its features), compiled
+    /// once for each order of the slab test and chosen per ray.
+    #[inline(always)]
+    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: the caller vouches for T's CPU features.
+        unsafe {
+            if ray.t.min >= 0.0 { self.any::<T, P, true>(ray, prims) } else { self.any::<T, P, false>(ray, prims) }
+        }
+    }
+
+    /// [`WideBvh::occluded_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
+    #[inline(always)]
+    unsafe fn any<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(&self, ray: &Ray, prims: &P) -> bool {
+        // SAFETY: the caller vouches for T's CPU features.
+        let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
+        let lanes = RayLanes::new(ray);
+        let (t_min, t_max) = (ray.t.min, ray.t.max);
+        let mut stack: Stack<u32> = Stack::new();
+        let mut current = 0u32;
+        loop {
+            if is_packed(current) {
+                for (a, b, pair_lanes) in self.block_pairs(current) {
+                    // SAFETY: as for `T::new`.
+                    if unsafe { boxes.intersect_pair(&lanes, a, b, t_min, t_max) }.0 & pair_lanes != 0 {
+                        return true;
+                    }
+                }
+            } else if current & LEAF_BIT != 0 {
+                let LeafRange { start, count } = self.ranges[range_index(current)];
+                for slot in start..start + count {
+                    if prims.intersect(slot, ray, t_min, t_max).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                let node = &self.nodes[current as usize];
+                // SAFETY: as for `T::new`.
+                let (_, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
+                if mask != 0 {
+                    // Any order finds a blocker; the first hit child is visited next.
+                    let first = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        self.prefetch(node.child[i]);
+                        stack.push(node.child[i]);
+                        mask &= mask - 1;
+                    }
+                    current = node.child[first];
+                    continue;
+                }
+            }
+            match stack.pop() {
+                Some(c) => current = c,
+                None => return false,
+            }
+        }
+    }
+}
