@@ -4,7 +4,7 @@ mod common;
 
 use common::{Rng, assets, builtin_scene};
 use rayscope::bvh::wide::{Lanes, NodeTest, NodeWidth};
-use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Bvh16, Primitives, WideBvh, WideTree};
+use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, WideBvh, WideTree};
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use rayscope::math::Vec3A;
 use rayscope::ray::Ray;
@@ -510,7 +510,7 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
 /// A random wide node: boxes around the origin, some slots empty (at +inf, as the collapse
 /// leaves them), some flat, some touching the ray origins' planes.
 fn random_node<const W: usize>(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<W> {
-    let mut n = rayscope::bvh::wide::WideNode { bounds: [[f32::INFINITY; W]; 6], child: [u32::MAX; W] };
+    let mut n = rayscope::bvh::wide::WideNode { bounds: [[f32::INFINITY; W]; 6], child: [ChildRef::EMPTY; W] };
     for i in 0..W {
         if rng.f32() < 0.15 {
             continue;
@@ -524,7 +524,7 @@ fn random_node<const W: usize>(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<W
             n.bounds[axis][i] = lo[axis];
             n.bounds[axis + 3][i] = hi[axis];
         }
-        n.child[i] = i as u32;
+        n.child[i] = ChildRef::node(i as u32);
     }
     n
 }
@@ -596,7 +596,7 @@ fn slab_case<const W: usize, P: NodeTest<W>, S: NodeTest<W>>(rng: &mut Rng, simd
     // within rounding.
     let mut hits = 0;
     for i in 0..W {
-        if node.child[i] == u32::MAX {
+        if node.child[i] == ChildRef::EMPTY {
             assert_eq!(portable.1 & 1 << i, 0, "an empty slot was hit by {ray:?}");
             continue;
         }
@@ -634,14 +634,14 @@ fn collapse_fills_wide_nodes() {
     let prims = Ordered { shapes: &shapes, bvh: &bvh };
     let wide = Bvh8::from_binary(&bvh, &prims);
     wide.validate(&bvh, &bounds).unwrap();
-    let children: usize = wide.nodes.iter().map(|n| n.child.iter().filter(|&&c| c != u32::MAX).count()).sum();
+    let children: usize = wide.nodes.iter().map(|n| n.child.iter().filter(|&&c| c != ChildRef::EMPTY).count()).sum();
     let mean = children as f32 / wide.nodes.len() as f32;
     assert!(mean >= 6.0, "mean children per node {mean}");
     assert!(wide.ranges.is_empty(), "every leaf of triangles is packed");
     for n in &wide.nodes {
         for &c in &n.child {
-            if c != u32::MAX && c & 1 << 31 != 0 {
-                let blocks = ((c >> 26) & 0xf) + 1;
+            if c != ChildRef::EMPTY && c.is_packed() {
+                let blocks = c.packed_blocks().len();
                 assert!(blocks <= 4, "a leaf of {blocks} blocks");
             }
         }

@@ -20,7 +20,7 @@ pub use build::BuildParams;
 pub use node::BvhNode;
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
-pub use wide::{Bvh4, Bvh8, Bvh16, Occluders, PACKET, SimdLevel, WideBvh, WideTree};
+pub use wide::{Bvh4, Bvh8, Bvh16, ChildRef, Occluders, PACKET, SimdLevel, WideBvh, WideTree};
 
 use crate::geometry::PrimHit;
 use crate::ray::Ray;

@@ -10,10 +10,9 @@
 //! its subtree from a parent as at most `i` children, each a wide node or a leaf holding a
 //! whole subtree's primitives. On the dragon it makes half as many nodes, most of them full.
 
-use super::child::{BLOCK_BITS, LEAF_BIT, MAX_BLOCKS, is_packed, packed_ref, range_ref};
 use super::kernels::{Lanes, NodeWidth};
 use super::layout::{LeafRange, Tri4, WideNode};
-use super::{SimdLevel, WideBvh};
+use super::{ChildRef, SimdLevel, WideBvh};
 use wide::f32x8;
 
 use crate::bvh::{Bvh, Primitives};
@@ -287,7 +286,7 @@ where
             return out;
         }
         let plan = Plan::<W>::new(bin, prims);
-        if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << BLOCK_BITS {
+        if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << ChildRef::BLOCK_BITS {
             out.fill(bin, &plan, prims, 0, 0);
             return out;
         }
@@ -331,7 +330,7 @@ where
             } else {
                 let idx = self.nodes.len();
                 self.nodes.push(WideNode::empty());
-                wide.set(slot, &child.bounds(), idx as u32);
+                wide.set(slot, &child.bounds(), ChildRef::node(idx as u32));
                 interior[n_interior] = (kid.bin, idx);
                 n_interior += 1;
             }
@@ -344,44 +343,36 @@ where
 
     /// Add the nodes, blocks and ranges of `part` (a tree of its own, root at 0) after this
     /// tree's, moving its references along; returns the reference to its root.
-    fn append(&mut self, part: WideBvh<W>) -> u32 {
+    fn append(&mut self, part: WideBvh<W>) -> ChildRef {
         let (nodes, blocks, ranges) = (self.nodes.len() as u32, self.blocks.len() as u32, self.ranges.len() as u32);
-        let moved = |c: u32| {
-            if c == super::layout::EMPTY {
-                c
-            } else if is_packed(c) {
-                // The caller checked that every block index fits in BLOCK_BITS.
-                c + blocks
-            } else if c & LEAF_BIT != 0 {
-                c + ranges
-            } else {
-                c + nodes
-            }
-        };
         self.nodes.extend(part.nodes.into_iter().map(|mut n| {
-            n.child = n.child.map(moved);
+            // The caller checked that every block index fits in BLOCK_BITS.
+            n.child = n.child.map(|c| c.moved(nodes, blocks, ranges));
             n
         }));
         self.blocks.extend(part.blocks);
         self.ranges.extend(part.ranges);
-        nodes
+        ChildRef::node(nodes)
     }
 
     /// A leaf reference for the subtree that `d` decided on: packed blocks when its slots are
     /// all static triangles and few enough, else a range.
-    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, d: &Decision<W>) -> u32 {
+    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, d: &Decision<W>) -> ChildRef {
         let (range, packable) = (d.range, d.packable);
         let LeafRange { start, count } = range;
-        if packable && count.div_ceil(4) <= MAX_BLOCKS && (self.blocks.len() as u32) < (1 << BLOCK_BITS) {
+        if packable
+            && count.div_ceil(4) <= ChildRef::MAX_BLOCKS
+            && (self.blocks.len() as u32) < (1 << ChildRef::BLOCK_BITS)
+        {
             let first = self.blocks.len() as u32;
             for chunk in (start..start + count).step_by(4) {
                 let end = (chunk + 4).min(start + count);
                 self.blocks.push(Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t)))));
             }
-            packed_ref(first, self.blocks.len() as u32 - first)
+            ChildRef::packed(first, self.blocks.len() as u32 - first)
         } else {
             self.ranges.push(range);
-            range_ref(self.ranges.len() as u32 - 1)
+            ChildRef::range(self.ranges.len() as u32 - 1)
         }
     }
 }

@@ -2,10 +2,11 @@
 //! references), the blocks of four packed triangles its leaves of static triangles hold, and
 //! the slot ranges of its other leaves. Sizes are checked at compile time.
 
+use super::ChildRef;
 use crate::geometry::{Aabb, Triangle};
 use crate::math::Vec3A;
 
-/// Marks an unused child slot.
+/// Marks an unused lane of a [`Tri4`] block (in its `slot`).
 pub const EMPTY: u32 = u32::MAX;
 
 /// Rows of [`WideNode::bounds`]: lower x, y, z, then upper x, y, z.
@@ -30,7 +31,7 @@ pub struct WideNode<const W: usize> {
     /// Lower x, y, z and upper x, y, z of the `W` children, by row.
     pub bounds: [[f32; W]; ROWS],
     /// Child references (see the table).
-    pub child: [u32; W],
+    pub child: [ChildRef; W],
 }
 
 const _: () = assert!(std::mem::size_of::<WideNode<4>>() == 128);
@@ -39,10 +40,10 @@ const _: () = assert!(std::mem::size_of::<WideNode<16>>() == 448);
 
 impl<const W: usize> WideNode<W> {
     pub(super) fn empty() -> Self {
-        WideNode { bounds: [[f32::INFINITY; W]; ROWS], child: [EMPTY; W] }
+        WideNode { bounds: [[f32::INFINITY; W]; ROWS], child: [ChildRef::EMPTY; W] }
     }
 
-    pub(super) fn set(&mut self, i: usize, b: &Aabb, child: u32) {
+    pub(super) fn set(&mut self, i: usize, b: &Aabb, child: ChildRef) {
         for axis in 0..3 {
             self.bounds[axis][i] = b.min[axis];
             self.bounds[axis + 3][i] = b.max[axis];

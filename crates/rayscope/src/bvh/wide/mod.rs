@@ -14,7 +14,7 @@
 //! - `collapse.rs`: the binary BVH collapsed into a wide tree by the surface area heuristic,
 //!   leaves of static triangles packed four to a [`Tri4`] block;
 //! - `layout.rs`: what the tree stores ([`WideNode`], [`Tri4`], [`LeafRange`]); `child.rs`: the
-//!   child references, which say what and where each child is;
+//!   child references ([`ChildRef`]), which say what and where each child is;
 //! - `tree.rs`: [`WideTree`], the width rendering uses, chosen for the CPU;
 //! - `simd.rs`: [`SimdLevel`], the instruction set, detected at run time;
 //! - `kernels.rs`: the slab test (documented there) and the packed triangle test on the
@@ -42,14 +42,13 @@ mod validate;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx::{Avx2Node8, Avx512Node16};
+pub use child::ChildRef;
 pub use kernels::{Lanes, NodeTest, NodeWidth, PairHits, Portable4, Portable8, Portable16, RayLanes};
 pub use layout::{EMPTY, LeafRange, Tri4, WideNode};
 pub use packet::{PACKET, PacketHits};
 pub use shadow::{MAX_LEAVES, MAX_TRIANGLES, Occluders};
 pub use simd::SimdLevel;
 pub use tree::{MIN_PRIMS_16, WideTree};
-
-use child::LEAF_BIT;
 
 /// A wide BVH: nodes of `W` children, leaves of packed triangles or primitive ranges.
 #[derive(Clone, Debug, Default)]
@@ -90,8 +89,8 @@ where
         // Children come after their parents (the collapse appends them depth-first).
         for i in 0..self.nodes.len() {
             for &c in &self.nodes[i].child {
-                if c != EMPTY && c & LEAF_BIT == 0 {
-                    depth[c as usize] = depth[i] + 1;
+                if c != ChildRef::EMPTY && !c.is_leaf() {
+                    depth[c.node_index() as usize] = depth[i] + 1;
                 }
             }
         }

@@ -20,12 +20,11 @@
 
 use wide::f32x8;
 
-use super::child::LEAF_BIT;
 use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, fused_mul_sub, planes};
-use super::layout::{EMPTY, WideNode};
+use super::layout::WideNode;
 use super::stack::Stack;
 use super::traverse::{OneRay, ray_is_finite, sort_far_to_near};
-use super::{SimdLevel, WideBvh};
+use super::{ChildRef, SimdLevel, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;
@@ -79,7 +78,7 @@ fn greater(a: f32, b: f32) -> f32 {
 /// (lower-bound) entry distance.
 #[derive(Clone, Copy)]
 struct Entry {
-    child: u32,
+    child: ChildRef,
     lanes: u32,
     near: f32,
 }
@@ -379,9 +378,9 @@ where
         let mut made = 0u32;
 
         let mut stack: Stack<Entry> = Stack::new();
-        let mut current = Entry { child: 0, lanes: p.active, near: 0.0 };
+        let mut current = Entry { child: ChildRef::ROOT, lanes: p.active, near: 0.0 };
         loop {
-            if current.child & LEAF_BIT != 0 {
+            if current.child.is_leaf() {
                 let mut lanes = current.lanes;
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
@@ -409,21 +408,18 @@ where
                 }
                 t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {
-                let node = &self.nodes[current.child as usize];
+                let node = &self.nodes[current.child.node_index() as usize];
                 // SAFETY: as for `T::new`.
                 let (near, mut mask) = unsafe { nodes.test(&p, node, t_far) };
-                let mut order = [Entry { child: EMPTY, lanes: 0, near: 0.0 }; W];
+                let mut order = [Entry { child: ChildRef::EMPTY, lanes: 0, near: 0.0 }; W];
                 let mut k = 0;
                 let t_max_v = f32x8::new(t_max);
                 while mask != 0 {
                     let i = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let child = node.child[i];
-                    let lanes = if child & LEAF_BIT != 0 {
-                        p.leaf_lanes(node, i, t_max_v) & current.lanes
-                    } else {
-                        current.lanes
-                    };
+                    let lanes =
+                        if child.is_leaf() { p.leaf_lanes(node, i, t_max_v) & current.lanes } else { current.lanes };
                     if lanes != 0 {
                         order[k] = Entry { child, lanes, near: near[i] };
                         self.prefetch(child);

@@ -8,12 +8,11 @@
 //! primitive that blocks one is on the list, and each listed triangle or leaf is tested with
 //! the traversal's own triangle and box tests.
 
-use super::WideBvh;
-use super::child::{LEAF_BIT, is_packed, packed_blocks, range_index};
 use super::kernels::{Lanes, NodeWidth, RayLanes};
 use super::layout::{EMPTY, LeafRange, Tri4};
 use super::stack::Stack;
 use super::traverse::ray_is_finite;
+use super::{ChildRef, WideBvh};
 use crate::bvh::Primitives;
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{Aabb, Triangle};
@@ -176,22 +175,22 @@ where
         if self.nodes.is_empty() {
             return Some(out);
         }
-        let mut stack: Stack<u32> = Stack::new();
-        stack.push(0);
+        let mut stack: Stack<ChildRef> = Stack::new();
+        stack.push(ChildRef::ROOT);
         while let Some(index) = stack.pop() {
-            let node = &self.nodes[index as usize];
+            let node = &self.nodes[index.node_index() as usize];
             for i in 0..W {
                 let child = node.child[i];
-                if child == EMPTY {
+                if child == ChildRef::EMPTY {
                     continue;
                 }
                 let b = node.child_bounds(i);
                 if !frustum.may_meet(b.min, b.max) {
                     continue;
                 }
-                if is_packed(child) {
+                if child.is_packed() {
                     // Keep the triangles that may meet the frustum, lane by lane.
-                    for block in &self.blocks[packed_blocks(child)] {
+                    for block in &self.blocks[child.packed_blocks()] {
                         for lane in 0..4 {
                             if block.slot[lane] == EMPTY || !frustum.may_meet_triangle(&block.triangle(lane)) {
                                 continue;
@@ -203,12 +202,12 @@ where
                             out.triangles += 1;
                         }
                     }
-                } else if child & LEAF_BIT != 0 {
+                } else if child.is_leaf() {
                     if out.leaves == MAX_LEAVES {
                         return None;
                     }
                     out.boxes[out.leaves] = b;
-                    out.ranges[out.leaves] = self.ranges[range_index(child)];
+                    out.ranges[out.leaves] = self.ranges[child.range_index()];
                     out.leaves += 1;
                 } else {
                     stack.push(child);

@@ -2,14 +2,13 @@
 //! detected instruction set, the walk down the tree with its fixed stack and prefetches, and
 //! the leaf tests (which packets share).
 
-use super::child::{LEAF_BIT, PACKED_BIT, first_block, is_packed, packed_blocks, range_index};
 use super::kernels::PortableTest;
 #[cfg(target_arch = "x86_64")]
 use super::kernels::{Avx2Test, Avx512Test};
 use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes};
 use super::layout::{LeafRange, Tri4, WideNode};
 use super::stack::Stack;
-use super::{SimdLevel, WideBvh};
+use super::{ChildRef, SimdLevel, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::PrimHit;
 use crate::geometry::aabb::safe_inv_dir;
@@ -87,8 +86,8 @@ where
     /// `0xff`, or `0x0f` for a last odd block, paired with the block after it (or an empty
     /// one at the end of the array) so that every step is one eight-lane test.
     #[inline(always)]
-    pub(super) fn block_pairs(&self, leaf: u32) -> impl Iterator<Item = (&Tri4, &Tri4, u32)> {
-        let range = packed_blocks(leaf);
+    pub(super) fn block_pairs(&self, leaf: ChildRef) -> impl Iterator<Item = (&Tri4, &Tri4, u32)> {
+        let range = leaf.packed_blocks();
         let end = range.end;
         range.step_by(2).map(move |i| {
             let b = self.blocks.get(i + 1).unwrap_or(&Tri4::EMPTY);
@@ -100,14 +99,14 @@ where
     /// work on its siblings (incoherent rays wait on cache misses more than on arithmetic): a
     /// node's four lines, or a packed leaf's first pair of blocks (five lines).
     #[inline(always)]
-    pub(super) fn prefetch(&self, child: u32) {
+    pub(super) fn prefetch(&self, child: ChildRef) {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            let (p, lines): (*const i8, usize) = if is_packed(child) {
-                (self.blocks.as_ptr().wrapping_add(packed_blocks(child).start).cast(), 5)
-            } else if child & LEAF_BIT == 0 {
-                (self.nodes.as_ptr().wrapping_add(child as usize).cast(), size_of::<WideNode<W>>() / 64)
+            let (p, lines): (*const i8, usize) = if child.is_packed() {
+                (self.blocks.as_ptr().wrapping_add(child.packed_blocks().start).cast(), 5)
+            } else if !child.is_leaf() {
+                (self.nodes.as_ptr().wrapping_add(child.node_index() as usize).cast(), size_of::<WideNode<W>>() / 64)
             } else {
                 return;
             };
@@ -123,15 +122,15 @@ where
     /// [`WideBvh::prefetch`] choosing the address without branches: the four lines of a node
     /// or the first four of a packed leaf's blocks (of the first node for a range leaf).
     #[inline(always)]
-    pub(super) fn prefetch_branchless(&self, child: u32) {
+    pub(super) fn prefetch_branchless(&self, child: ChildRef) {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            let node = self.nodes.as_ptr().wrapping_add((child & !(LEAF_BIT | PACKED_BIT)) as usize) as *const i8;
-            let block = self.blocks.as_ptr().wrapping_add(first_block(child)) as *const i8;
-            let p = if is_packed(child) {
+            let node = self.nodes.as_ptr().wrapping_add(child.index_bits()) as *const i8;
+            let block = self.blocks.as_ptr().wrapping_add(child.first_block()) as *const i8;
+            let p = if child.is_packed() {
                 block
-            } else if child & LEAF_BIT == 0 {
+            } else if !child.is_leaf() {
                 node
             } else {
                 self.nodes.as_ptr() as *const i8
@@ -248,16 +247,16 @@ where
         let mut best = None;
         // Entries: a child reference and its entry distance, so that entries a closer hit
         // has since ruled out are dropped when popped.
-        let mut stack: Stack<(u32, f32)> = Stack::new();
-        let mut current = 0u32;
+        let mut stack: Stack<(ChildRef, f32)> = Stack::new();
+        let mut current = ChildRef::ROOT;
         loop {
-            if current & LEAF_BIT != 0 {
+            if current.is_leaf() {
                 let one = OneRay { ray, boxes: &boxes, lanes: &lanes };
                 // SAFETY: as for `T::new`.
                 unsafe { self.leaf_closest(current, &one, prims, obs, &mut t_max, &mut best) };
             } else {
-                let node = &self.nodes[current as usize];
-                obs.entered(current);
+                let node = &self.nodes[current.node_index() as usize];
+                obs.entered(current.node_index());
                 obs.boxes_tested(W as u32);
                 // SAFETY: as for `T::new`.
                 let (near, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
@@ -285,7 +284,7 @@ where
                         continue;
                     }
                     // Visit the nearest hit child now; push the others, farthest first.
-                    let mut order = [(0u32, 0.0f32); W];
+                    let mut order = [(ChildRef::ROOT, 0.0f32); W];
                     order[0] = (node.child[first], near[first]);
                     self.prefetch(node.child[first]);
                     let mut k = 1;
@@ -322,7 +321,7 @@ where
     #[inline(always)]
     pub(super) unsafe fn leaf_closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
-        leaf: u32,
+        leaf: ChildRef,
         one: &OneRay<'_, T>,
         prims: &P,
         obs: &mut O,
@@ -330,7 +329,7 @@ where
         best: &mut Option<BvhHit>,
     ) {
         let t_min = one.ray.t.min;
-        if is_packed(leaf) {
+        if leaf.is_packed() {
             // Blocks two at a time (one 8-lane test where the CPU has AVX2), a leaf's last odd
             // block with whatever block follows it, its lanes masked off: leaves of one, two,
             // three blocks all run the same code, where a separate single-block test after the
@@ -348,7 +347,7 @@ where
                 hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
             }
         } else {
-            let LeafRange { start, count } = self.ranges[range_index(leaf)];
+            let LeafRange { start, count } = self.ranges[leaf.range_index()];
             for slot in start..start + count {
                 obs.prim_tested();
                 if let Some(hit) = prims.intersect(slot, one.ray, t_min, *t_max) {
@@ -415,25 +414,25 @@ where
         let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
         let lanes = RayLanes::new(ray);
         let (t_min, t_max) = (ray.t.min, ray.t.max);
-        let mut stack: Stack<u32> = Stack::new();
-        let mut current = 0u32;
+        let mut stack: Stack<ChildRef> = Stack::new();
+        let mut current = ChildRef::ROOT;
         loop {
-            if is_packed(current) {
+            if current.is_packed() {
                 for (a, b, pair_lanes) in self.block_pairs(current) {
                     // SAFETY: as for `T::new`.
                     if unsafe { boxes.intersect_pair(&lanes, a, b, t_min, t_max) }.0 & pair_lanes != 0 {
                         return true;
                     }
                 }
-            } else if current & LEAF_BIT != 0 {
-                let LeafRange { start, count } = self.ranges[range_index(current)];
+            } else if current.is_leaf() {
+                let LeafRange { start, count } = self.ranges[current.range_index()];
                 for slot in start..start + count {
                     if prims.intersect(slot, ray, t_min, t_max).is_some() {
                         return true;
                     }
                 }
             } else {
-                let node = &self.nodes[current as usize];
+                let node = &self.nodes[current.node_index() as usize];
                 // SAFETY: as for `T::new`.
                 let (_, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
                 if mask != 0 {

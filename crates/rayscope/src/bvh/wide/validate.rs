@@ -1,9 +1,8 @@
 //! The invariants of a collapsed tree, checked against the binary tree it came from.
 
-use super::WideBvh;
-use super::child::{LEAF_BIT, is_packed, packed_blocks, range_index};
 use super::kernels::{Lanes, NodeWidth};
 use super::layout::EMPTY;
+use super::{ChildRef, WideBvh};
 use crate::bvh::{Bvh, BvhError};
 use crate::geometry::Aabb;
 
@@ -25,19 +24,19 @@ where
             let n = &self.nodes[i];
             for k in 0..W {
                 let c = n.child[k];
-                if c == EMPTY {
+                if c == ChildRef::EMPTY {
                     continue;
                 }
                 let b = n.child_bounds(k);
-                if c & LEAF_BIT != 0 {
-                    let slots: Vec<u32> = if is_packed(c) {
-                        let range = packed_blocks(c);
+                if c.is_leaf() {
+                    let slots: Vec<u32> = if c.is_packed() {
+                        let range = c.packed_blocks();
                         let bad = BvhError::BadRange { node: i, start: range.start, end: range.end };
                         let blocks = self.blocks.get(range).ok_or(bad)?;
                         blocks.iter().flat_map(|b| b.slot).filter(|s| *s != EMPTY).collect()
                     } else {
-                        let bad = BvhError::BadChild { node: i, child: c as usize };
-                        let r = self.ranges.get(range_index(c)).ok_or(bad)?;
+                        let bad = BvhError::BadChild { node: i, child: c.to_bits() as usize };
+                        let r = self.ranges.get(c.range_index()).ok_or(bad)?;
                         (r.start..r.start + r.count).collect()
                     };
                     for slot in slots {
@@ -51,12 +50,12 @@ where
                         }
                     }
                 } else {
-                    let c = c as usize;
+                    let c = c.node_index() as usize;
                     if c <= i || c >= self.nodes.len() {
                         return Err(BvhError::BadChild { node: i, child: c });
                     }
                     for j in 0..W {
-                        if self.nodes[c].child[j] != EMPTY && !b.contains(&self.nodes[c].child_bounds(j)) {
+                        if self.nodes[c].child[j] != ChildRef::EMPTY && !b.contains(&self.nodes[c].child_bounds(j)) {
                             return Err(BvhError::ChildOutside { node: i, child: c });
                         }
                     }
