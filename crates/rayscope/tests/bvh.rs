@@ -3,7 +3,7 @@
 mod common;
 
 use common::{Rng, assets, builtin_scene};
-use rayscope::bvh::wide::{Lanes, NodeTest, NodeWidth};
+use rayscope::bvh::wide::{Lanes, NodeWidth};
 use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, WideBvh, WideTree};
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use rayscope::math::Vec3A;
@@ -505,109 +505,6 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
         assert!(hits > 100, "{name}: {hits} hits");
         assert_eq!(check_packets(&WideTree::with_width(&g.bvh, g, 24 - g.wide.width()), g, &packets), hits);
     }
-}
-
-/// A random wide node: boxes around the origin, some slots empty (at +inf, as the collapse
-/// leaves them), some flat, some touching the ray origins' planes.
-fn random_node<const W: usize>(rng: &mut Rng) -> rayscope::bvh::wide::WideNode<W> {
-    let mut n = rayscope::bvh::wide::WideNode { bounds: [[f32::INFINITY; W]; 6], child: [ChildRef::EMPTY; W] };
-    for i in 0..W {
-        if rng.f32() < 0.15 {
-            continue;
-        }
-        let (a, b) = (rng.vec3(-1.0, 1.0), rng.vec3(-1.0, 1.0));
-        let (mut lo, hi) = (a.min(b), a.max(b));
-        if rng.f32() < 0.1 {
-            lo.x = hi.x;
-        }
-        for axis in 0..3 {
-            n.bounds[axis][i] = lo[axis];
-            n.bounds[axis + 3][i] = hi[axis];
-        }
-        n.child[i] = ChildRef::node(i as u32);
-    }
-    n
-}
-
-/// The SIMD node tests of each width, where the target has them.
-#[cfg(target_arch = "x86_64")]
-type Simd8 = rayscope::bvh::wide::Avx2Node8;
-#[cfg(not(target_arch = "x86_64"))]
-type Simd8 = rayscope::bvh::wide::Portable8;
-#[cfg(target_arch = "x86_64")]
-type Simd16 = rayscope::bvh::wide::Avx512Node16;
-#[cfg(not(target_arch = "x86_64"))]
-type Simd16 = rayscope::bvh::wide::Portable16;
-
-/// The slab test gives the same bits on the SIMD paths (AVX2 for 8 children, AVX-512 for 16,
-/// where the CPU has them) as on the portable one (entry distances and hit masks), for rays
-/// (integer order) and lines (float order), rays parallel to an axis and origins on box
-/// planes among them; and it agrees with the scalar box test.
-#[test]
-fn slab_test_is_the_same_on_every_path() {
-    use rayscope::bvh::wide::{Portable8, Portable16, SimdLevel};
-    let level = SimdLevel::detect();
-    let (avx2, avx512) = (matches!(level, SimdLevel::Avx2 | SimdLevel::Avx512), level == SimdLevel::Avx512);
-    let mut rng = Rng(77);
-    let mut hits = 0;
-    for _ in 0..3000 {
-        hits += slab_case::<8, Portable8, Simd8>(&mut rng, avx2);
-        hits += slab_case::<16, Portable16, Simd16>(&mut rng, avx512);
-    }
-    assert!(hits > 1500, "the random boxes are hit often enough to test something ({hits})");
-}
-
-/// One random node and ray for [`slab_test_is_the_same_on_every_path`]: the portable test `P`
-/// against the SIMD test `S` (when `simd`: the CPU has its features) and the scalar box test.
-/// Returns the number of boxes hit.
-fn slab_case<const W: usize, P: NodeTest<W>, S: NodeTest<W>>(rng: &mut Rng, simd: bool) -> usize {
-    use rayscope::geometry::aabb::safe_inv_dir;
-    let node = random_node::<W>(rng);
-    let mut ray = Ray::new(rng.vec3(-1.5, 1.5), rng.dir());
-    match rng.next_u64() % 6 {
-        0 => ray.dir = Vec3A::new(0.0, ray.dir.y, ray.dir.z).normalize(),
-        1 => ray.origin.x = node.bounds[0][0],
-        2 => ray.t.min = -rng.range(0.0, 2.0),
-        3 => ray.t.max = rng.range(0.0, 1.0),
-        _ => {}
-    }
-    let inv = safe_inv_dir(ray.dir);
-    let (t_min, t_max) = (ray.t.min, ray.t.max);
-    // SAFETY: the portable test needs no CPU feature.
-    let portable = unsafe {
-        let p = P::new(&ray, inv);
-        if t_min >= 0.0 { p.test::<true>(&node, t_min, t_max) } else { p.test::<false>(&node, t_min, t_max) }
-    };
-    if simd {
-        // SAFETY: the caller checked that the CPU has the test's features; the test inlines
-        // into this function's code, which is what the traversal's SIMD variants compile.
-        let fast = unsafe {
-            let a = S::new(&ray, inv);
-            if t_min >= 0.0 { a.test::<true>(&node, t_min, t_max) } else { a.test::<false>(&node, t_min, t_max) }
-        };
-        assert_eq!(portable.1, fast.1, "{W}-wide masks differ for {ray:?}");
-        for i in 0..W {
-            if portable.1 & 1 << i != 0 {
-                assert_eq!(portable.0[i].to_bits(), fast.0[i].to_bits(), "{W}-wide entry distances differ for {ray:?}");
-            }
-        }
-    }
-    // Against the scalar test (float arithmetic): the same boxes, up to rays that graze a box
-    // within rounding.
-    let mut hits = 0;
-    for i in 0..W {
-        if node.child[i] == ChildRef::EMPTY {
-            assert_eq!(portable.1 & 1 << i, 0, "an empty slot was hit by {ray:?}");
-            continue;
-        }
-        let b = node.child_bounds(i);
-        let scalar = b.hit_distance(ray.origin, inv, t_min, t_max);
-        if portable.1 & 1 << i != 0 {
-            hits += 1;
-            assert!((portable.0[i] - scalar).abs() <= 1e-4 * (1.0 + scalar.abs()) || scalar == f32::INFINITY);
-        }
-    }
-    hits
 }
 
 /// The inverse of a zero direction component is a power of two, so that `o * inv` is exact.

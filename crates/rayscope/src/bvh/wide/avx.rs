@@ -1,13 +1,19 @@
 //! The node tests in `std::arch` for x86-64: eight boxes in AVX2, sixteen in AVX-512, and
 //! eight triangles in AVX2. Each does the portable test's operations (`kernels.rs`) lane for
 //! lane, in the same order, so every path gives the same bits.
+//!
+//! A test is made only with its level's token ([`Avx2`], [`Avx512`]), so wherever one exists
+//! the CPU has the features its intrinsics need: that is the proof each `unsafe` block here
+//! cites.
 
 use super::kernels::{NodeTest, PairHits, RayLanes, planes};
+use super::simd::{Avx2, Avx512};
 use super::{Tri4, WideNode};
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
-/// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step.
+/// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step. Made only
+/// with an [`Avx2`] token.
 pub struct Avx2Node8 {
     o: [std::arch::x86_64::__m256; 3],
     dir: [std::arch::x86_64::__m256; 3],
@@ -18,14 +24,16 @@ pub struct Avx2Node8 {
 }
 
 impl NodeTest<8> for Avx2Node8 {
+    type Cpu = Avx2;
+
     // Not `target_feature` functions themselves: those would stay out-of-line calls in the
     // traversal compiled for AVX2, where these inline.
     #[inline(always)]
-    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+    fn new(_: Avx2, ray: &Ray, inv: Vec3A) -> Self {
         use std::arch::x86_64::_mm256_set1_ps as splat;
         let (near, far) = planes(inv);
         let oinv = ray.origin * inv;
-        // SAFETY: the caller vouches for AVX2.
+        // SAFETY: the token proves that the CPU has AVX2.
         unsafe {
             Avx2Node8 {
                 o: [splat(ray.origin.x), splat(ray.origin.y), splat(ray.origin.z)],
@@ -39,9 +47,9 @@ impl NodeTest<8> for Avx2Node8 {
     }
 
     #[inline(always)]
-    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+    fn test<const FORWARD: bool>(&self, n: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
         use std::arch::x86_64::*;
-        // SAFETY: the caller vouches for AVX2 and FMA; nodes are 64-byte aligned and each row
+        // SAFETY: the CPU has AVX2 and FMA (`self` was made with their token); nodes are 64-byte aligned and each row
         // is 32 bytes, as the aligned loads need; `d` holds eight floats.
         unsafe {
             // The same operations, in the same order, as the portable test: identical results.
@@ -80,9 +88,9 @@ impl NodeTest<8> for Avx2Node8 {
     /// Möller–Trumbore on eight triangles in 256-bit registers: the operations of
     /// `Tri4::intersect`, lane for lane, so the hits are the same bits.
     #[inline(always)]
-    unsafe fn intersect_pair(&self, _: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+    fn intersect_pair(&self, _: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
         use std::arch::x86_64::*;
-        // SAFETY: the caller vouches for AVX2; the loads read 16 bytes from rows of 4 floats.
+        // SAFETY: the CPU has AVX2 (`self` was made with its token); the loads read 16 bytes from rows of 4 floats.
         unsafe {
             let l = |x: &[f32; 4], y: &[f32; 4]| {
                 _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(_mm_loadu_ps(x.as_ptr())), _mm_loadu_ps(y.as_ptr()))
@@ -130,7 +138,7 @@ impl NodeTest<8> for Avx2Node8 {
 }
 
 /// The 16-wide slab test in AVX-512 (`std::arch`): one 512-bit instruction per step, with
-/// the 8-wide AVX2 test's triangle test.
+/// the 8-wide AVX2 test's triangle test. Made only with an [`Avx512`] token.
 pub struct Avx512Node16 {
     /// The leaves' test (and its ray splats).
     pair: Avx2Node8,
@@ -141,15 +149,17 @@ pub struct Avx512Node16 {
 }
 
 impl NodeTest<16> for Avx512Node16 {
+    type Cpu = Avx512;
+
     #[inline(always)]
-    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+    fn new(cpu: Avx512, ray: &Ray, inv: Vec3A) -> Self {
         use std::arch::x86_64::_mm512_set1_ps as splat;
         let (near, far) = planes(inv);
         let oinv = ray.origin * inv;
-        // SAFETY: the caller vouches for AVX-512 (and with it AVX2).
+        // SAFETY: the token proves that the CPU has AVX-512 F.
         unsafe {
             Avx512Node16 {
-                pair: <Avx2Node8 as NodeTest<8>>::new(ray, inv),
+                pair: <Avx2Node8 as NodeTest<8>>::new(cpu.into(), ray, inv),
                 inv: [splat(inv.x), splat(inv.y), splat(inv.z)],
                 oinv: [splat(oinv.x), splat(oinv.y), splat(oinv.z)],
                 near,
@@ -159,9 +169,9 @@ impl NodeTest<16> for Avx512Node16 {
     }
 
     #[inline(always)]
-    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<16>, t_min: f32, t_max: f32) -> ([f32; 16], u32) {
+    fn test<const FORWARD: bool>(&self, n: &WideNode<16>, t_min: f32, t_max: f32) -> ([f32; 16], u32) {
         use std::arch::x86_64::*;
-        // SAFETY: the caller vouches for AVX-512 F; nodes are 64-byte aligned and each row is
+        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); nodes are 64-byte aligned and each row is
         // 64 bytes, as the aligned loads need; `d` holds sixteen floats.
         unsafe {
             // The portable test's operations, in its order: identical results.
@@ -197,8 +207,7 @@ impl NodeTest<16> for Avx512Node16 {
     }
 
     #[inline(always)]
-    unsafe fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        // SAFETY: as for `new`.
-        unsafe { self.pair.intersect_pair(r, a, b, t_min, t_max) }
+    fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        self.pair.intersect_pair(r, a, b, t_min, t_max)
     }
 }

@@ -12,7 +12,7 @@
 
 use super::kernels::{Lanes, NodeWidth};
 use super::layout::{LeafRange, Tri4, WideNode};
-use super::{ChildRef, SimdLevel, WideBvh};
+use super::{ChildRef, Simd, WideBvh};
 use wide::f32x8;
 
 use crate::bvh::{Bvh, Primitives};
@@ -277,7 +277,7 @@ where
     /// Collapse a binary BVH by the surface area heuristic (see the module documentation).
     /// Leaves of static triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
     pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
-        let mut out = WideBvh { simd: SimdLevel::detect(), ..WideBvh::default() };
+        let mut out = WideBvh { simd: Simd::detect(), ..WideBvh::default() };
         let Some(root) = bin.nodes.first() else { return out };
         out.nodes.push(WideNode::empty());
         if root.is_leaf() {

@@ -2,6 +2,12 @@
 //! the packed triangle test, on the portable `wide` vectors, and which test each width uses
 //! at each [`super::SimdLevel`] ([`NodeWidth`]). The `std::arch` tests for x86-64 are in `avx.rs`.
 //!
+//! None of this is the crate's API. The tests are declared `pub` only because [`NodeWidth`]
+//! names them and the wide tree's public methods are bounded by it; this module is private,
+//! and only [`Lanes`] and [`NodeWidth`] are re-exported, hidden, for code generic over the
+//! width. A test is made with the token of the CPU features it is compiled for
+//! ([`NodeTest::Cpu`]), so that its methods are safe to call.
+//!
 //! # The slab test
 //!
 //! Every box test of the wide trees (single rays, packets' leaves, any-hit) computes the same
@@ -9,7 +15,7 @@
 //! - the distance to a plane `p` along axis `a` is `p * inv[a] - o[a] * inv[a]` with one
 //!   rounding (a fused multiply-subtract; `o[a] * inv[a]` is rounded once per ray). Against
 //!   `(p - o[a]) * inv[a]` it takes one instruction where that takes two, on the chain of
-//!   dependent operations that each node visit waits for. [`safe_inv_dir`] makes the inverse
+//!   dependent operations that each node visit waits for. [`crate::geometry::aabb::safe_inv_dir`] makes the inverse
 //!   of a zero direction component a power of two, so that for a ray parallel to a slab
 //!   `o[a] * inv[a]` is exact and so is the sign of every distance;
 //! - when the ray's interval starts at or after zero (every ray the renderer makes), the
@@ -25,6 +31,7 @@ use wide::{f32x4, f32x8, f32x16, i32x4, i32x8, i32x16};
 
 #[cfg(target_arch = "x86_64")]
 use super::avx::{Avx2Node8, Avx512Node16};
+use super::simd::{Avx2, Avx512, Baseline};
 use super::{Tri4, WideNode};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -63,30 +70,26 @@ pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
     ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz])
 }
 
-/// A ray prepared for the slab test of one node's `W` boxes at once.
+/// A ray prepared for the slab test of one node's `W` boxes at once. Only [`NodeTest::new`]
+/// makes one, with the token of the CPU features the test is compiled for: where a test
+/// exists, the CPU has them.
 pub trait NodeTest<const W: usize>: Sized {
-    /// Prepare `ray` with its safe inverse direction `inv`.
-    ///
-    /// # Safety
-    /// The CPU must have the features the implementation is compiled for.
-    unsafe fn new(ray: &Ray, inv: Vec3A) -> Self;
+    /// The token that proves the CPU has the test's features ([`Baseline`]: none).
+    type Cpu: Copy;
+
+    /// Prepare `ray` with its safe inverse direction `inv`, on the CPU `cpu` vouches for.
+    fn new(cpu: Self::Cpu, ray: &Ray, inv: Vec3A) -> Self;
 
     /// Entry distances of the node's `W` child boxes and the mask of those hit within
     /// `[t_min, t_max]`, by the slab test of the module documentation. `FORWARD` says that
     /// `t_min >= 0` (distances then compare in integer order); the traversals choose it once
     /// per ray, as a branch per node measured 8% slower.
-    ///
-    /// # Safety
-    /// As for [`NodeTest::new`].
-    unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+    fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
     /// Two packed blocks at once, as the packed 4-wide test (`Tri4::intersect`) gives them:
     /// lanes 0..4 are `a`'s, 4..8 are `b`'s. Both are tested against `[t_min, t_max]`.
-    ///
-    /// # Safety
-    /// As for [`NodeTest::new`].
     #[inline(always)]
-    unsafe fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+    fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
         let (ma, ta, ua, va) = a.intersect(r, t_min, t_max);
         let (mb, tb, ub, vb) = b.intersect(r, t_min, t_max);
         let cat = |x: [f32; 4], y: [f32; 4]| [x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3]];
@@ -196,8 +199,10 @@ macro_rules! portable_node_test {
         }
 
         impl NodeTest<$w> for $name {
+            type Cpu = Baseline;
+
             #[inline(always)]
-            unsafe fn new(ray: &Ray, inv: Vec3A) -> Self {
+            fn new(_: Baseline, ray: &Ray, inv: Vec3A) -> Self {
                 let (near, far) = planes(inv);
                 let oinv = ray.origin * inv;
                 $name {
@@ -209,7 +214,7 @@ macro_rules! portable_node_test {
             }
 
             #[inline(always)]
-            unsafe fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
+            fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
                 let t = |row: usize, a: usize| fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], self.oinv[a]);
                 let near = [t(self.near[0], 0), t(self.near[1], 1), t(self.near[2], 2)];
                 let far = [t(self.far[0], 0), t(self.far[1], 1), t(self.far[2], 2)];
@@ -269,14 +274,14 @@ impl Tri4 {
 }
 
 /// The node tests of one width: the portable one and those used at [`super::SimdLevel::Avx2`] and
-/// [`super::SimdLevel::Avx512`].
+/// [`super::SimdLevel::Avx512`] (each made with a token the level's own converts to).
 pub trait NodeWidth<const W: usize> {
     /// The baseline test.
-    type Portable: NodeTest<W>;
+    type Portable: NodeTest<W, Cpu = Baseline>;
     /// The test compiled for AVX2 (the portable one, where no better exists).
-    type Avx2: NodeTest<W>;
+    type Avx2: NodeTest<W, Cpu: From<Avx2>>;
     /// The test compiled for AVX-512 (the AVX2 one, where no better exists).
-    type Avx512: NodeTest<W>;
+    type Avx512: NodeTest<W, Cpu: From<Avx512>>;
 }
 
 /// Names the node tests of width `W` (see [`NodeWidth`]).
@@ -311,3 +316,143 @@ pub(super) type PortableTest<const W: usize> = <Lanes<W> as NodeWidth<W>>::Porta
 pub(super) type Avx2Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx2;
 #[cfg(target_arch = "x86_64")]
 pub(super) type Avx512Test<const W: usize> = <Lanes<W> as NodeWidth<W>>::Avx512;
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::RngExt;
+    use proptest::test_runner::{RngAlgorithm, TestRng};
+
+    use super::{NodeTest, Portable8, Portable16};
+    #[cfg(target_arch = "x86_64")]
+    use crate::bvh::wide::avx::{Avx2Node8, Avx512Node16};
+    use crate::bvh::wide::simd::{Avx2, Avx512, Baseline};
+    use crate::bvh::wide::{ChildRef, WideNode};
+    use crate::geometry::aabb::safe_inv_dir;
+    use crate::math::Vec3A;
+    use crate::ray::Ray;
+
+    fn vec3(rng: &mut TestRng, lo: f32, hi: f32) -> Vec3A {
+        Vec3A::new(rng.random_range(lo..hi), rng.random_range(lo..hi), rng.random_range(lo..hi))
+    }
+
+    /// Uniform on the unit sphere.
+    fn dir(rng: &mut TestRng) -> Vec3A {
+        loop {
+            let v = vec3(rng, -1.0, 1.0);
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+
+    /// A random wide node: boxes around the origin, some slots empty (at +inf, as the collapse
+    /// leaves them), some flat, some touching the ray origins' planes.
+    fn random_node<const W: usize>(rng: &mut TestRng) -> WideNode<W> {
+        let mut n = WideNode { bounds: [[f32::INFINITY; W]; 6], child: [ChildRef::EMPTY; W] };
+        for i in 0..W {
+            if rng.random::<f32>() < 0.15 {
+                continue;
+            }
+            let (a, b) = (vec3(rng, -1.0, 1.0), vec3(rng, -1.0, 1.0));
+            let (mut lo, hi) = (a.min(b), a.max(b));
+            if rng.random::<f32>() < 0.1 {
+                lo.x = hi.x;
+            }
+            for axis in 0..3 {
+                n.bounds[axis][i] = lo[axis];
+                n.bounds[axis + 3][i] = hi[axis];
+            }
+            n.child[i] = ChildRef::node(i as u32);
+        }
+        n
+    }
+
+    /// The SIMD node tests of each width, where the target has them.
+    #[cfg(target_arch = "x86_64")]
+    type Simd8 = Avx2Node8;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Simd8 = Portable8;
+    #[cfg(target_arch = "x86_64")]
+    type Simd16 = Avx512Node16;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Simd16 = Portable16;
+
+    /// The slab test gives the same bits on the SIMD paths (AVX2 for 8 children, AVX-512 for
+    /// 16, where the CPU has them) as on the portable one (entry distances and hit masks), for
+    /// rays (integer order) and lines (float order), rays parallel to an axis and origins on
+    /// box planes among them; and it agrees with the scalar box test.
+    #[test]
+    fn slab_test_is_the_same_on_every_path() {
+        // The tokens of the SIMD tests, where the CPU has their features.
+        #[cfg(target_arch = "x86_64")]
+        let (avx2, avx512) = (Avx2::new(), Avx512::new());
+        #[cfg(not(target_arch = "x86_64"))]
+        let (avx2, avx512) = (Avx2::new().map(Baseline::from), Avx512::new().map(Baseline::from));
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        let mut hits = 0;
+        for _ in 0..3000 {
+            hits += slab_case::<8, Portable8, Simd8>(&mut rng, avx2);
+            hits += slab_case::<16, Portable16, Simd16>(&mut rng, avx512);
+        }
+        assert!(hits > 1500, "the random boxes are hit often enough to test something ({hits})");
+    }
+
+    /// One random node and ray for [`slab_test_is_the_same_on_every_path`]: the portable test
+    /// `P` against the SIMD test `S` (made with `simd`, where the CPU has its features) and the
+    /// scalar box test. Returns the number of boxes hit.
+    fn slab_case<const W: usize, P: NodeTest<W, Cpu = Baseline>, S: NodeTest<W>>(
+        rng: &mut TestRng,
+        simd: Option<S::Cpu>,
+    ) -> usize {
+        let node = random_node::<W>(rng);
+        let mut ray = Ray::new(vec3(rng, -1.5, 1.5), dir(rng));
+        match rng.random::<u64>() % 6 {
+            0 => ray.dir = Vec3A::new(0.0, ray.dir.y, ray.dir.z).normalize(),
+            1 => ray.origin.x = node.bounds[0][0],
+            2 => ray.t.min = -rng.random_range(0.0..2.0),
+            3 => ray.t.max = rng.random_range(0.0..1.0),
+            _ => {}
+        }
+        let inv = safe_inv_dir(ray.dir);
+        let (t_min, t_max) = (ray.t.min, ray.t.max);
+        let portable = {
+            let p = P::new(Baseline, &ray, inv);
+            if t_min >= 0.0 { p.test::<true>(&node, t_min, t_max) } else { p.test::<false>(&node, t_min, t_max) }
+        };
+        if let Some(cpu) = simd {
+            // Here the test is compiled without its features (its intrinsics are calls), in the
+            // traversal with them: the same operations either way.
+            let fast = {
+                let a = S::new(cpu, &ray, inv);
+                if t_min >= 0.0 { a.test::<true>(&node, t_min, t_max) } else { a.test::<false>(&node, t_min, t_max) }
+            };
+            assert_eq!(portable.1, fast.1, "{W}-wide masks differ for {ray:?}");
+            for i in 0..W {
+                if portable.1 & 1 << i != 0 {
+                    assert_eq!(
+                        portable.0[i].to_bits(),
+                        fast.0[i].to_bits(),
+                        "{W}-wide entry distances differ for {ray:?}"
+                    );
+                }
+            }
+        }
+        // Against the scalar test (float arithmetic): the same boxes, up to rays that graze a
+        // box within rounding.
+        let mut hits = 0;
+        for i in 0..W {
+            if node.child[i] == ChildRef::EMPTY {
+                assert_eq!(portable.1 & 1 << i, 0, "an empty slot was hit by {ray:?}");
+                continue;
+            }
+            let b = node.child_bounds(i);
+            let scalar = b.hit_distance(ray.origin, inv, t_min, t_max);
+            if portable.1 & 1 << i != 0 {
+                hits += 1;
+                assert!((portable.0[i] - scalar).abs() <= 1e-4 * (1.0 + scalar.abs()) || scalar == f32::INFINITY);
+            }
+        }
+        hits
+    }
+}

@@ -16,7 +16,8 @@
 //! - `layout.rs`: what the tree stores ([`WideNode`], [`Tri4`], [`LeafRange`]); `child.rs`: the
 //!   child references ([`ChildRef`]), which say what and where each child is;
 //! - `tree.rs`: [`WideTree`], the width rendering uses, chosen for the CPU;
-//! - `simd.rs`: [`SimdLevel`], the instruction set, detected at run time;
+//! - `simd.rs`: [`SimdLevel`], the instruction set, detected at run time, and the tokens that
+//!   prove the CPU has a level's features (what the traversals' `unsafe` blocks rest on);
 //! - `kernels.rs`: the slab test (documented there) and the packed triangle test on the
 //!   portable vectors, and which test each width uses at each level; `avx.rs`: the AVX2 and
 //!   AVX-512 tests;
@@ -40,15 +41,18 @@ mod traverse;
 mod tree;
 mod validate;
 
-#[cfg(target_arch = "x86_64")]
-pub use avx::{Avx2Node8, Avx512Node16};
 pub use child::ChildRef;
-pub use kernels::{Lanes, NodeTest, NodeWidth, PairHits, Portable4, Portable8, Portable16, RayLanes};
+/// The bound of the wide tree's methods (the widths it is made in: 4, 8 and 16), for code
+/// generic over the width; the node tests it names stay inside the crate.
+#[doc(hidden)]
+pub use kernels::{Lanes, NodeWidth};
 pub use layout::{EMPTY, LeafRange, Tri4, WideNode};
 pub use packet::{PACKET, PacketHits};
 pub use shadow::{MAX_LEAVES, MAX_TRIANGLES, Occluders};
 pub use simd::SimdLevel;
 pub use tree::{MIN_PRIMS_16, WideTree};
+
+use simd::Simd;
 
 /// A wide BVH: nodes of `W` children, leaves of packed triangles or primitive ranges.
 #[derive(Clone, Debug, Default)]
@@ -60,10 +64,9 @@ pub struct WideBvh<const W: usize> {
     /// The other leaves (spheres, moving shapes, mixes, oversized leaves): slot ranges whose
     /// primitives are intersected one by one through [`crate::bvh::Primitives`].
     pub ranges: Vec<LeafRange>,
-    /// The traversal variant: [`SimdLevel::detect`] when built. Private to the wide tree's
-    /// module so that it can only name a level the CPU has; [`WideBvh::portable`] selects the
-    /// baseline.
-    simd: SimdLevel,
+    /// The traversal variant: [`SimdLevel::detect`]'s when built, with the token that proves
+    /// the CPU has it; [`WideBvh::portable`] selects the baseline.
+    simd: Simd,
 }
 
 /// The 4-wide BVH (128-byte nodes, tested with 4-lane vectors).
@@ -99,12 +102,12 @@ where
 
     /// The traversal variant in use.
     pub fn simd_level(&self) -> SimdLevel {
-        self.simd
+        self.simd.level()
     }
 
     /// The same tree traversed by the baseline code (to compare it with the detected one).
     pub fn portable(mut self) -> Self {
-        self.simd = SimdLevel::Portable;
+        self.simd = Simd::Portable;
         self
     }
 }

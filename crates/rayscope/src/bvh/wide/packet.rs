@@ -22,9 +22,12 @@ use wide::f32x8;
 
 use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, fused_mul_sub, planes};
 use super::layout::WideNode;
+use super::simd::Baseline;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
 use super::traverse::{OneRay, ray_is_finite, sort_far_to_near};
-use super::{ChildRef, SimdLevel, WideBvh};
+use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;
@@ -113,32 +116,31 @@ pub struct Packet {
 }
 
 /// The packet's test of an inner node of `W` children (see [`Packet::test`]), made ready for
-/// one packet.
+/// one packet, with the token of the CPU features it is compiled for (as a `NodeTest` is).
 pub trait PacketNodeTest<const W: usize>: Sized {
-    /// Prepare the test for packet `p`.
-    ///
-    /// # Safety
-    /// The CPU must have the features the implementation is compiled for.
-    unsafe fn new(p: &Packet) -> Self;
+    /// The token that proves the CPU has the test's features ([`Baseline`]: none).
+    type Cpu: Copy;
+
+    /// Prepare the test for packet `p`, on the CPU `cpu` vouches for.
+    fn new(cpu: Self::Cpu, p: &Packet) -> Self;
 
     /// [`Packet::test`] on `node`.
-    ///
-    /// # Safety
-    /// As for [`PacketNodeTest::new`].
-    unsafe fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32);
+    fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32);
 }
 
 /// The portable packet test: children eight at a time in the `wide` vectors.
 pub struct PortablePacketTest;
 
 impl<const W: usize> PacketNodeTest<W> for PortablePacketTest {
+    type Cpu = Baseline;
+
     #[inline(always)]
-    unsafe fn new(_: &Packet) -> Self {
+    fn new(_: Baseline, _: &Packet) -> Self {
         PortablePacketTest
     }
 
     #[inline(always)]
-    unsafe fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32) {
+    fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32) {
         p.test(node, t_far)
     }
 }
@@ -156,10 +158,12 @@ pub struct Avx512PacketTest {
 
 #[cfg(target_arch = "x86_64")]
 impl PacketNodeTest<16> for Avx512PacketTest {
+    type Cpu = Avx512;
+
     #[inline(always)]
-    unsafe fn new(p: &Packet) -> Self {
+    fn new(_: Avx512, p: &Packet) -> Self {
         use std::arch::x86_64::_mm512_set1_ps as splat;
-        // SAFETY: the caller vouches for AVX-512.
+        // SAFETY: the token proves that the CPU has AVX-512 F.
         unsafe {
             Avx512PacketTest {
                 o: [splat(p.o.x), splat(p.o.y), splat(p.o.z)],
@@ -172,9 +176,10 @@ impl PacketNodeTest<16> for Avx512PacketTest {
     }
 
     #[inline(always)]
-    unsafe fn test(&self, p: &Packet, node: &WideNode<16>, t_far: f32) -> ([f32; 16], u32) {
+    fn test(&self, p: &Packet, node: &WideNode<16>, t_far: f32) -> ([f32; 16], u32) {
         use std::arch::x86_64::*;
-        // SAFETY: the caller vouches for AVX-512 F; `d` holds sixteen floats.
+        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); `d` holds sixteen
+        // floats.
         unsafe {
             let near = _mm512_max_ps(
                 _mm512_max_ps(self.bound::<true>(node, p.near_row[0], 0), self.bound::<true>(node, p.near_row[1], 1)),
@@ -197,14 +202,11 @@ impl Avx512PacketTest {
     /// children: the lowest if `LOWEST`, else the highest (as in [`Packet::test`]). A method,
     /// not a closure: a closure is compiled without the caller's CPU features, and the
     /// intrinsics in it stayed calls.
-    ///
-    /// # Safety
-    /// The CPU must have AVX-512 F.
     #[inline(always)]
-    unsafe fn bound<const LOWEST: bool>(&self, node: &WideNode<16>, row: usize, a: usize) -> std::arch::x86_64::__m512 {
+    fn bound<const LOWEST: bool>(&self, node: &WideNode<16>, row: usize, a: usize) -> std::arch::x86_64::__m512 {
         use std::arch::x86_64::*;
-        // SAFETY: the caller vouches for AVX-512 F; nodes are 64-byte aligned and each row is
-        // 64 bytes, as the aligned load needs.
+        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); nodes are 64-byte
+        // aligned and each row is 64 bytes, as the aligned load needs.
         unsafe {
             let d = _mm512_sub_ps(_mm512_load_ps(node.bounds[row].as_ptr()), self.o[a]);
             let ge = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(d, _mm512_setzero_ps());
@@ -225,7 +227,7 @@ impl Avx512PacketTest {
 /// at the other levels it is [`PortablePacketTest`] (compiled for the level).
 pub trait PacketWidth<const W: usize> {
     /// The test compiled for AVX-512.
-    type Avx512: PacketNodeTest<W>;
+    type Avx512: PacketNodeTest<W, Cpu: From<Avx512>>;
 }
 
 impl PacketWidth<8> for Lanes<8> {
@@ -255,13 +257,14 @@ where
         if rays.is_empty() || self.nodes.is_empty() {
             return [None; PACKET];
         }
-        // SAFETY: the level names only features the CPU has; the portable test needs none.
+        // SAFETY: each `#[target_feature]` variant is called with the token (`cpu`) that proves
+        // the CPU has its features.
         unsafe {
-            match self.simd_level() {
+            match self.simd {
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx512 => self.packet_avx512(rays, prims),
+                Simd::Avx512(cpu) => self.packet_avx512(cpu, rays, prims),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx2 => self.packet_avx2(rays, prims),
+                Simd::Avx2(cpu) => self.packet_avx2(cpu, rays, prims),
                 _ => self.packet_portable(rays, prims),
             }
         }
@@ -271,35 +274,42 @@ where
     /// [`WideBvh::intersect_counted`]).
     #[inline(never)]
     fn packet_portable<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
-        // SAFETY: the portable tests need no CPU feature.
-        unsafe { self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Portable, PortablePacketTest, P>(rays, prims) }
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Portable, PortablePacketTest, P>(
+            Baseline, Baseline, rays, prims,
+        )
     }
 
     /// [`WideBvh::intersect_packet`] compiled for AVX2, the packet's set-up included.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    unsafe fn packet_avx2<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
-        // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, PortablePacketTest, P>(rays, prims) }
+    fn packet_avx2<P: Primitives + ?Sized>(&self, cpu: Avx2, rays: &[Ray], prims: &P) -> PacketHits {
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, PortablePacketTest, P>(
+            cpu.into(),
+            cpu.into(),
+            rays,
+            prims,
+        )
     }
 
     /// [`WideBvh::intersect_packet`] compiled for AVX-512, the packet's set-up included.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
-    unsafe fn packet_avx512<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
-        // SAFETY: this function runs only where the CPU has AVX-512.
-        unsafe {
-            self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx512, <Lanes<W> as PacketWidth<W>>::Avx512, P>(
-                rays, prims,
-            )
-        }
+    fn packet_avx512<P: Primitives + ?Sized>(&self, cpu: Avx512, rays: &[Ray], prims: &P) -> PacketHits {
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx512, <Lanes<W> as PacketWidth<W>>::Avx512, P>(
+            cpu.into(),
+            cpu.into(),
+            rays,
+            prims,
+        )
     }
 
-    /// The packet's set-up and traversal with leaf test `T` and inner-node test `Q` (the CPU
-    /// must have their features); `rays` is not empty.
+    /// The packet's set-up and traversal with leaf test `T` and inner-node test `Q` (on the
+    /// CPU `leaf_cpu` and `node_cpu` vouch for); `rays` is not empty.
     #[inline(always)]
-    unsafe fn packet_setup<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
+    fn packet_setup<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
         &self,
+        leaf_cpu: T::Cpu,
+        node_cpu: Q::Cpu,
         rays: &[Ray],
         prims: &P,
     ) -> PacketHits {
@@ -313,17 +323,18 @@ where
             }
             return hits;
         }
-        // SAFETY: the caller vouches for T's CPU features.
-        unsafe { self.packet_with::<T, Q, P>(rays, &invs, prims, &mut hits) };
+        self.packet_with::<T, Q, P>(leaf_cpu, node_cpu, rays, &invs, prims, &mut hits);
         hits
     }
 
-    /// The packet traversal, with `T` for each ray's leaf tests (the CPU must have its
-    /// features). `rays` is non-empty and packet-compatible, `invs` their inverse directions
-    /// (lanes beyond the packet repeating its last ray).
+    /// The packet traversal, with `T` for each ray's leaf tests and `Q` for the inner nodes
+    /// (made with `leaf_cpu` and `node_cpu`). `rays` is non-empty and packet-compatible,
+    /// `invs` their inverse directions (lanes beyond the packet repeating its last ray).
     #[inline(always)]
-    unsafe fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
+    fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
         &self,
+        leaf_cpu: T::Cpu,
+        node_cpu: Q::Cpu,
         rays: &[Ray],
         invs: &[Vec3A; PACKET],
         prims: &P,
@@ -365,8 +376,7 @@ where
             t_min_lo: t_min.into_iter().fold(f32::INFINITY, lesser),
             active: (1u32 << n) - 1,
         };
-        // SAFETY: the caller vouches for Q's CPU features.
-        let nodes = unsafe { Q::new(&p) };
+        let nodes = Q::new(node_cpu, &p);
         let mut t_max: [f32; PACKET] = std::array::from_fn(|lane| ray(lane).t.max);
         // The packet's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
@@ -387,30 +397,18 @@ where
                     lanes &= lanes - 1;
                     let r = &rays[lane];
                     if made & 1 << lane == 0 {
-                        // SAFETY: the caller vouches for T's CPU features.
-                        singles[lane].write((unsafe { T::new(r, invs[lane]) }, RayLanes::new(r)));
+                        singles[lane].write((T::new(leaf_cpu, r, invs[lane]), RayLanes::new(r)));
                         made |= 1 << lane;
                     }
                     // SAFETY: written above, or earlier as `made` records.
                     let (boxes, splat) = unsafe { singles[lane].assume_init_ref() };
                     let one = OneRay { ray: r, boxes, lanes: splat };
-                    // SAFETY: as above.
-                    unsafe {
-                        self.leaf_closest(
-                            current.child,
-                            &one,
-                            prims,
-                            &mut NoObserver,
-                            &mut t_max[lane],
-                            &mut hits[lane],
-                        )
-                    };
+                    self.leaf_closest(current.child, &one, prims, &mut NoObserver, &mut t_max[lane], &mut hits[lane]);
                 }
                 t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {
                 let node = &self.nodes[current.child.node_index() as usize];
-                // SAFETY: as for `T::new`.
-                let (near, mut mask) = unsafe { nodes.test(&p, node, t_far) };
+                let (near, mut mask) = nodes.test(&p, node, t_far);
                 let mut order = [Entry { child: ChildRef::EMPTY, lanes: 0, near: 0.0 }; W];
                 let mut k = 0;
                 let t_max_v = f32x8::new(t_max);

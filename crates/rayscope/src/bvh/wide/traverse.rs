@@ -7,8 +7,11 @@ use super::kernels::PortableTest;
 use super::kernels::{Avx2Test, Avx512Test};
 use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes};
 use super::layout::{LeafRange, Tri4, WideNode};
+use super::simd::Baseline;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
-use super::{ChildRef, SimdLevel, WideBvh};
+use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives, TraversalObserver};
 use crate::geometry::PrimHit;
 use crate::geometry::aabb::safe_inv_dir;
@@ -162,14 +165,14 @@ where
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return None;
         }
-        // SAFETY: `simd` names only a level the CPU has (see the field); the portable test
-        // needs no CPU feature.
+        // SAFETY: each `#[target_feature]` variant is called with the token (`cpu`) that proves
+        // the CPU has its features.
         unsafe {
             match self.simd {
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx512 => self.intersect_avx512(ray, prims, obs),
+                Simd::Avx512(cpu) => self.intersect_avx512(cpu, ray, prims, obs),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx2 => self.intersect_avx2(ray, prims, obs),
+                Simd::Avx2(cpu) => self.intersect_avx2(cpu, ray, prims, obs),
                 _ => self.intersect_portable(ray, prims, obs),
             }
         }
@@ -185,63 +188,60 @@ where
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        // SAFETY: the portable test needs no CPU feature.
-        unsafe { self.intersect_with::<PortableTest<W>, P, O>(ray, prims, obs) }
+        self.intersect_with::<PortableTest<W>, P, O>(Baseline, ray, prims, obs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    unsafe fn intersect_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
+    fn intersect_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
+        cpu: Avx2,
         ray: &Ray,
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.intersect_with::<Avx2Test<W>, P, O>(ray, prims, obs) }
+        self.intersect_with::<Avx2Test<W>, P, O>(cpu.into(), ray, prims, obs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
-    unsafe fn intersect_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
+    fn intersect_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
+        cpu: Avx512,
         ray: &Ray,
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        // SAFETY: this function runs only where the CPU has AVX-512.
-        unsafe { self.intersect_with::<Avx512Test<W>, P, O>(ray, prims, obs) }
+        self.intersect_with::<Avx512Test<W>, P, O>(cpu.into(), ray, prims, obs)
     }
 
-    /// The closest-hit traversal with node test `T` (the CPU must have its features),
-    /// compiled once for each order of the slab test and chosen per ray.
+    /// The closest-hit traversal with node test `T` (on the CPU `cpu` proves), compiled once
+    /// for each order of the slab test and chosen per ray.
     #[inline(always)]
-    unsafe fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+    fn intersect_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
+        cpu: T::Cpu,
         ray: &Ray,
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        // SAFETY: the caller vouches for T's CPU features.
-        unsafe {
-            if ray.t.min >= 0.0 {
-                self.closest::<T, P, O, true>(ray, prims, obs)
-            } else {
-                self.closest::<T, P, O, false>(ray, prims, obs)
-            }
+        if ray.t.min >= 0.0 {
+            self.closest::<T, P, O, true>(cpu, ray, prims, obs)
+        } else {
+            self.closest::<T, P, O, false>(cpu, ray, prims, obs)
         }
     }
 
     /// [`WideBvh::intersect_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
     #[inline(always)]
-    unsafe fn closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
+    fn closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
         &self,
+        cpu: T::Cpu,
         ray: &Ray,
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        // SAFETY: the caller vouches for T's CPU features.
-        let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
+        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir));
         let lanes = RayLanes::new(ray);
         let (t_min, mut t_max) = (ray.t.min, ray.t.max);
         let mut best = None;
@@ -252,14 +252,12 @@ where
         loop {
             if current.is_leaf() {
                 let one = OneRay { ray, boxes: &boxes, lanes: &lanes };
-                // SAFETY: as for `T::new`.
-                unsafe { self.leaf_closest(current, &one, prims, obs, &mut t_max, &mut best) };
+                self.leaf_closest(current, &one, prims, obs, &mut t_max, &mut best);
             } else {
                 let node = &self.nodes[current.node_index() as usize];
                 obs.entered(current.node_index());
                 obs.boxes_tested(W as u32);
-                // SAFETY: as for `T::new`.
-                let (near, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
+                let (near, mut mask) = boxes.test::<FORWARD>(node, t_min, t_max);
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
@@ -315,11 +313,8 @@ where
 
     /// Intersect leaf reference `leaf` with one ray, keeping the closest hit in `t_max` and
     /// `best` (the single-ray traversal and each ray of a packet share this).
-    ///
-    /// # Safety
-    /// As for [`NodeTest::new`].
     #[inline(always)]
-    pub(super) unsafe fn leaf_closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+    pub(super) fn leaf_closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         leaf: ChildRef,
         one: &OneRay<'_, T>,
@@ -341,8 +336,7 @@ where
                 if lanes == 0xff {
                     obs.prim_tested();
                 }
-                // SAFETY: the caller vouches for T's CPU features.
-                let (mask, t, u, v) = unsafe { one.boxes.intersect_pair(one.lanes, a, b, t_min, *t_max) };
+                let (mask, t, u, v) = one.boxes.intersect_pair(one.lanes, a, b, t_min, *t_max);
                 let hits = Hits { mask: mask & lanes, t: &t, u: &u, v: &v };
                 hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
             }
@@ -363,14 +357,14 @@ where
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return false;
         }
-        // SAFETY: `simd` names only a level the CPU has (see the field); the portable test
-        // needs no CPU feature.
+        // SAFETY: each `#[target_feature]` variant is called with the token (`cpu`) that proves
+        // the CPU has its features.
         unsafe {
             match self.simd {
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx512 => self.occluded_avx512(ray, prims),
+                Simd::Avx512(cpu) => self.occluded_avx512(cpu, ray, prims),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx2 => self.occluded_avx2(ray, prims),
+                Simd::Avx2(cpu) => self.occluded_avx2(cpu, ray, prims),
                 _ => self.occluded_portable(ray, prims),
             }
         }
@@ -379,39 +373,41 @@ where
     /// The portable any-hit traversal, kept out of line (see [`WideBvh::intersect_counted`]).
     #[inline(never)]
     fn occluded_portable<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        // SAFETY: the portable test needs no CPU feature.
-        unsafe { self.occluded_with::<PortableTest<W>, P>(ray, prims) }
+        self.occluded_with::<PortableTest<W>, P>(Baseline, ray, prims)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    unsafe fn occluded_avx2<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        // SAFETY: this function runs only where the CPU has AVX2.
-        unsafe { self.occluded_with::<Avx2Test<W>, P>(ray, prims) }
+    fn occluded_avx2<P: Primitives + ?Sized>(&self, cpu: Avx2, ray: &Ray, prims: &P) -> bool {
+        self.occluded_with::<Avx2Test<W>, P>(cpu.into(), ray, prims)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
-    unsafe fn occluded_avx512<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        // SAFETY: this function runs only where the CPU has AVX-512.
-        unsafe { self.occluded_with::<Avx512Test<W>, P>(ray, prims) }
+    fn occluded_avx512<P: Primitives + ?Sized>(&self, cpu: Avx512, ray: &Ray, prims: &P) -> bool {
+        self.occluded_with::<Avx512Test<W>, P>(cpu.into(), ray, prims)
     }
 
-    /// The any-hit traversal with node test `T` (the CPU must have its features), compiled
-    /// once for each order of the slab test and chosen per ray.
+    /// The any-hit traversal with node test `T` (on the CPU `cpu` proves), compiled once for
+    /// each order of the slab test and chosen per ray.
     #[inline(always)]
-    unsafe fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        // SAFETY: the caller vouches for T's CPU features.
-        unsafe {
-            if ray.t.min >= 0.0 { self.any::<T, P, true>(ray, prims) } else { self.any::<T, P, false>(ray, prims) }
+    fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, cpu: T::Cpu, ray: &Ray, prims: &P) -> bool {
+        if ray.t.min >= 0.0 {
+            self.any::<T, P, true>(cpu, ray, prims)
+        } else {
+            self.any::<T, P, false>(cpu, ray, prims)
         }
     }
 
     /// [`WideBvh::occluded_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
     #[inline(always)]
-    unsafe fn any<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(&self, ray: &Ray, prims: &P) -> bool {
-        // SAFETY: the caller vouches for T's CPU features.
-        let boxes = unsafe { T::new(ray, safe_inv_dir(ray.dir)) };
+    fn any<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(
+        &self,
+        cpu: T::Cpu,
+        ray: &Ray,
+        prims: &P,
+    ) -> bool {
+        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir));
         let lanes = RayLanes::new(ray);
         let (t_min, t_max) = (ray.t.min, ray.t.max);
         let mut stack: Stack<ChildRef> = Stack::new();
@@ -419,8 +415,7 @@ where
         loop {
             if current.is_packed() {
                 for (a, b, pair_lanes) in self.block_pairs(current) {
-                    // SAFETY: as for `T::new`.
-                    if unsafe { boxes.intersect_pair(&lanes, a, b, t_min, t_max) }.0 & pair_lanes != 0 {
+                    if boxes.intersect_pair(&lanes, a, b, t_min, t_max).0 & pair_lanes != 0 {
                         return true;
                     }
                 }
@@ -433,8 +428,7 @@ where
                 }
             } else {
                 let node = &self.nodes[current.node_index() as usize];
-                // SAFETY: as for `T::new`.
-                let (_, mut mask) = unsafe { boxes.test::<FORWARD>(node, t_min, t_max) };
+                let (_, mut mask) = boxes.test::<FORWARD>(node, t_min, t_max);
                 if mask != 0 {
                     // Any order finds a blocker; the first hit child is visited next.
                     let first = mask.trailing_zeros() as usize;
