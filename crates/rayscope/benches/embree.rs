@@ -100,13 +100,18 @@ struct Embree {
     scene: sys::RTCScene,
 }
 
+// SAFETY: Embree's device and scene handles may be used from any thread; a committed scene is
+// only read by the queries, which Embree allows from many threads at once.
 unsafe impl Send for Embree {}
+// SAFETY: as for `Send`: the queries (`&self`) only read the committed scene.
 unsafe impl Sync for Embree {}
 
 impl Embree {
     /// Build once on `threads` threads; returns the scene and the time of `rtcCommitScene`.
     fn build(soup: &Soup, threads: usize) -> (Embree, Duration) {
         let cfg = CString::new(format!("threads={threads}")).unwrap();
+        // SAFETY: Embree's C API used as documented: `cfg` outlives the call that reads it, and
+        // the new buffers hold as many vertices and triangles as are written to them.
         unsafe {
             let device = sys::rtcNewDevice(cfg.as_ptr());
             let scene = sys::rtcNewScene(device);
@@ -159,6 +164,7 @@ impl Embree {
         };
         let mut ctx =
             if coherent { embree::IntersectContext::coherent() } else { embree::IntersectContext::incoherent() };
+        // SAFETY: a committed scene, and a context and ray hit that live across the call.
         unsafe { sys::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geomID != u32::MAX).then_some((rh.hit.primID, rh.ray.tfar))
     }
@@ -166,6 +172,7 @@ impl Embree {
     /// Closest hits of up to eight rays in one `rtcIntersect8` call (Embree's packet mode,
     /// with the coherent flag: for camera rays of neighbouring pixels); returns how many hit.
     fn intersect8(&self, rays: &[Ray]) -> usize {
+        // SAFETY: `RTCRayHit8` is plain floats and integers, for which zero bits are valid.
         let mut rh: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
         let mut valid = [0i32; 8];
         for (i, r) in rays.iter().enumerate().take(8) {
@@ -178,6 +185,7 @@ impl Embree {
             valid[i] = -1;
         }
         let mut ctx = embree::IntersectContext::coherent();
+        // SAFETY: as in `intersect`; `valid` holds the eight lanes' flags Embree reads.
         unsafe { sys::rtcIntersect8(valid.as_ptr(), self.scene, &mut ctx, &mut rh) };
         rh.hit.geomID.iter().take(rays.len()).filter(|g| **g != u32::MAX).count()
     }
@@ -185,6 +193,7 @@ impl Embree {
     fn occluded(&self, r: &Ray) -> bool {
         let mut ray = rtc_ray(r);
         let mut ctx = embree::IntersectContext::incoherent();
+        // SAFETY: as in `intersect`.
         unsafe { sys::rtcOccluded1(self.scene, &mut ctx, &mut ray) };
         ray.tfar < 0.0
     }
@@ -209,6 +218,7 @@ fn rtc_ray(r: &Ray) -> sys::RTCRay {
 
 impl Drop for Embree {
     fn drop(&mut self) {
+        // SAFETY: the handles were made by `build` and are released once, here.
         unsafe {
             sys::rtcReleaseScene(self.scene);
             sys::rtcReleaseDevice(self.device);
@@ -220,6 +230,8 @@ impl Drop for Embree {
 #[allow(deprecated)]
 fn ftz_daz() {
     #[cfg(target_arch = "x86_64")]
+    // SAFETY: setting the FTZ and DAZ bits of MXCSR only changes how this thread's float
+    // operations round denormals.
     unsafe {
         use std::arch::x86_64::{_mm_getcsr, _mm_setcsr};
         _mm_setcsr(_mm_getcsr() | 0x8040);
