@@ -223,14 +223,21 @@ fn degenerate_inputs() {
         check_packets(&WideTree::with_width(&bvh, &prims, width), &prims, &packets);
     }
     // Huge coordinates.
-    let huge: Vec<Shape> = random_soup(&mut rng, 200, 0.3)
-        .into_iter()
-        .map(|s| match s {
-            Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * 1e6, (t.v0 + t.e1) * 1e6, (t.v0 + t.e2) * 1e6)),
-            other => other,
-        })
-        .collect();
+    let scaled = |shapes: Vec<Shape>, k: f32| -> Vec<Shape> {
+        shapes
+            .into_iter()
+            .map(|s| match s {
+                Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * k, (t.v0 + t.e1) * k, (t.v0 + t.e2) * k)),
+                other => other,
+            })
+            .collect()
+    };
+    let huge = scaled(random_soup(&mut rng, 200, 0.3), 1e6);
     check(&huge, random_rays(&mut rng, 300, 1e6).into_iter());
+    // Coordinates so large that the boxes' areas, and with them every SAH cost, overflow to
+    // infinity: the collapse still gives both sides of a split a slot.
+    let vast = scaled(random_soup(&mut rng, 200, 0.3), 1e30);
+    check(&vast, random_rays(&mut rng, 300, 1e30).into_iter());
 }
 
 #[test]

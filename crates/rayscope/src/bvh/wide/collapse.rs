@@ -229,7 +229,9 @@ impl<const W: usize> Plan<W> {
         let mut d = Decision {
             cost: [0.0; W],
             choice: [0; W],
-            split: both[W - 1].1,
+            // At least one slot each: where no split has a finite cost (boxes so large that
+            // their areas overflow), `best_splits` names none.
+            split: both[W - 1].1.max(1),
             packable,
             range: LeafRange { start: l.range.start, count },
         };
