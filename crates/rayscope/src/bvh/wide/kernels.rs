@@ -15,9 +15,10 @@
 //! - the distance to a plane `p` along axis `a` is `p * inv[a] - o[a] * inv[a]` with one
 //!   rounding (a fused multiply-subtract; `o[a] * inv[a]` is rounded once per ray). Against
 //!   `(p - o[a]) * inv[a]` it takes one instruction where that takes two, on the chain of
-//!   dependent operations that each node visit waits for. [`crate::geometry::aabb::safe_inv_dir`] makes the inverse
-//!   of a zero direction component a power of two, so that for a ray parallel to a slab
-//!   `o[a] * inv[a]` is exact and so is the sign of every distance;
+//!   dependent operations that each node visit waits for.
+//!   [`safe_inv_dir`](crate::geometry::aabb::safe_inv_dir) makes the inverse of a zero
+//!   direction component a power of two, so that for a ray parallel to a slab `o[a] * inv[a]`
+//!   is exact and so is the sign of every distance;
 //! - when the ray's interval starts at or after zero (every ray the renderer makes), the
 //!   entry distance is the maximum of the three entry planes' distances and the interval
 //!   start, the exit distance the minimum of the exit planes' and the interval end, and the

@@ -19,7 +19,7 @@ const ROWS: usize = 6;
 /// |---|---|---|
 /// | `bounds[0..3]` | 0..48 / 0..96 / 0..192 | lower x, y, z corners of the `W` child boxes, one row per axis |
 /// | `bounds[3..6]` | 48..96 / 96..192 / 192..384 | upper x, y, z corners |
-/// | `child` | 96..112 / 192..224 / 384..448 | per child: [`EMPTY`]; a node index; a packed leaf: bits 31 and 30 set, bits 26..30 the block count - 1, bits 0..26 the first [`Tri4`] block; or a range leaf: bit 31 set, bits 0..30 an index into [`WideBvh::ranges`] |
+/// | `child` | 96..112 / 192..224 / 384..448 | per child, a [`ChildRef`]: an empty slot, a node, a leaf of packed [`Tri4`] blocks or a range leaf (its bits are documented there) |
 /// | padding | 112..128 / 224..256 / none | keeps nodes aligned to cache lines |
 ///
 /// A box row per axis and side lets the slab test load, for each axis, just the plane the
