@@ -6,6 +6,8 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use rayscope::render::{RenderSettings, render};
 use rayscope::scene::{Geometry, Scene};
+
+use crate::counted;
 use serde::Serialize;
 
 /// One row of the table: a scene and the settings the course measured it with.
@@ -130,8 +132,7 @@ fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
         .and_then(|s| s.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l[12..].trim_matches('"').to_string()))
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let simd =
-        format!("{:?}, {}-wide BVH", rayscope::bvh::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
+    let simd = format!("{:?}, {}-wide BVH", rayscope::bvh::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
     Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup, simd }
 }
 
@@ -210,8 +211,15 @@ fn skipped(spec: &RowSpec, why: String) -> Row {
 pub fn markdown(r: &Report) -> String {
     let m = &r.machine;
     let mut s = format!(
-        "Machine: {}, {} cores ({} threads used), {}; {} traversal; {}, fastest of {} renders after {} warm-up.\n\n",
-        m.cpu, m.cores, m.threads, m.os, m.simd, m.resolution, m.repetitions, m.warmup
+        "Machine: {}, {} ({} used), {}; {} traversal; {}, fastest of {} after {}.\n\n",
+        m.cpu,
+        counted(m.cores as u64, "core", "cores"),
+        counted(m.threads as u64, "thread", "threads"),
+        m.os,
+        m.simd,
+        m.resolution,
+        counted(m.repetitions as u64, "render", "renders"),
+        counted(m.warmup as u64, "warm-up render", "warm-up renders")
     );
     s += "| scene | triangles | BVH build (ms) | BVH levels | render (ms) | Mrays/s | course report (ms, its hardware) |\n";
     s += "|---|---:|---:|---:|---:|---:|---:|\n";

@@ -15,7 +15,9 @@ use rayscope::render::RenderSettings;
 use rayscope::scene::builtin;
 
 use crate::files::{BrowserAction, FileBrowser};
+use crate::plural::counted;
 use crate::preview::{LineVertex, Preview};
+use crate::session::{NO_DISPLAY_HINT, check_display};
 use crate::state::{ModeChoice, OverlayKey, ViewKind, ViewerState};
 use crate::worker::{FrameImage, RenderJob, Worker};
 
@@ -42,12 +44,14 @@ pub struct ViewerOptions {
     /// Headless use: after `frames` ray-traced frames, save a screenshot of the window here
     /// and quit.
     pub screenshot: Option<PathBuf>,
-    /// Frames to render before the screenshot.
+    /// Frames to render before the screenshot; fewer when the image is complete sooner (the
+    /// heat map is one frame; dynamic accumulation stops at its maximum samples).
     pub frames: u32,
 }
 
 /// Open the viewer window; returns when it closes (or, with a screenshot, once it is saved).
 pub fn run(opts: ViewerOptions) -> anyhow::Result<()> {
+    check_display()?;
     let outcome: Arc<Mutex<Option<Result<(), String>>>> = Arc::new(Mutex::new(None));
     let out = outcome.clone();
     let native = eframe::NativeOptions {
@@ -65,7 +69,7 @@ pub fn run(opts: ViewerOptions) -> anyhow::Result<()> {
             Ok(Box::new(app))
         }),
     )
-    .map_err(|e| anyhow::anyhow!("the viewer window failed: {e}"))?;
+    .map_err(|e| anyhow::anyhow!("the viewer window failed: {e}; {NO_DISPLAY_HINT}"))?;
     match outcome.lock().unwrap().take() {
         Some(Err(e)) => anyhow::bail!(e),
         None if headless => anyhow::bail!("the viewer closed before the screenshot was taken"),
@@ -183,6 +187,12 @@ impl RayscopeApp {
         self.last_frame.as_ref()
     }
 
+    /// With a screenshot to take: whether it was saved (or why not), once the app is done and
+    /// has asked its window to close; `None` until then.
+    pub fn headless_outcome(&self) -> Option<Result<(), String>> {
+        self.outcome.lock().unwrap().clone()
+    }
+
     /// Frames the worker has delivered.
     pub fn frames_delivered(&self) -> u64 {
         self.worker.frames_posted()
@@ -264,8 +274,13 @@ impl RayscopeApp {
                 ui.selectable_value(&mut st.view, ViewKind::RayTraced, "Ray traced")
                     .on_hover_text("The ray-traced image (Tab toggles)");
                 ui.selectable_value(&mut st.view, ViewKind::HeatMap, "Heat map")
-                    .on_hover_text("BVH nodes visited per pixel: blue few, red many");
+                    .on_hover_text("BVH node boxes each camera ray tested: blue fewest, red most");
             });
+            if st.view == ViewKind::HeatMap
+                && let Some(scale) = self.last_frame.as_ref().and_then(|f| f.heat)
+            {
+                scale.legend(ui);
+            }
         });
         egui::CollapsingHeader::new("Imaging mode").default_open(true).show(ui, |ui| {
             let mut mode = st.mode;
@@ -283,8 +298,13 @@ impl RayscopeApp {
             }
             ui.add(egui::Slider::new(&mut st.max_spp, 1..=4096).logarithmic(true).text("Max samples"))
                 .on_hover_text("Dynamic mode stops refining at this many samples per pixel");
-            if let Some(f) = &self.last_frame {
-                ui.label(format!("{} frames, {} samples/pixel, {:.2} Mrays/s", f.frames, f.spp, f.mrays_per_s));
+            if let Some(f) = self.last_frame.as_ref().filter(|f| f.heat.is_none()) {
+                ui.label(format!(
+                    "{}, {}/pixel, {:.2} Mrays/s",
+                    counted(f.frames.into(), "frame", "frames"),
+                    counted(f.spp.into(), "sample", "samples"),
+                    f.mrays_per_s
+                ));
             }
         });
         let mut s = st.settings.clone();
@@ -365,9 +385,9 @@ impl RayscopeApp {
         });
         let mut clear = false;
         if let Some(sel) = &st.selection {
-            egui::CollapsingHeader::new(format!("Ray tree ({} rays)", sel.tree.rays.len())).default_open(true).show(
-                ui,
-                |ui| {
+            egui::CollapsingHeader::new(format!("Ray tree ({})", counted(sel.tree.rays.len() as u64, "ray", "rays")))
+                .default_open(true)
+                .show(ui, |ui| {
                     for (i, r) in sel.tree.rays.iter().enumerate() {
                         let title = format!("#{i} {:?} · depth {}", r.kind, r.depth);
                         egui::CollapsingHeader::new(title).id_salt(("ray", i)).default_open(i < 4).show(ui, |ui| {
@@ -384,20 +404,15 @@ impl RayscopeApp {
                             ui.label(format!("colour ({:.3}, {:.3}, {:.3})", r.color[0], r.color[1], r.color[2]));
                             let reached = r.shadows.iter().filter(|s| s.blocked_at.is_none()).count();
                             if !r.shadows.is_empty() {
-                                ui.label(format!(
-                                    "{} shadow rays: {} reached, {} blocked",
-                                    r.shadows.len(),
-                                    reached,
-                                    r.shadows.len() - reached
-                                ));
+                                let rays = counted(r.shadows.len() as u64, "shadow ray", "shadow rays");
+                                ui.label(format!("{rays}: {reached} reached, {} blocked", r.shadows.len() - reached));
                             }
                         });
                     }
                     if ui.button("Clear selection").on_hover_text("Stop debugging this pixel").clicked() {
                         clear = true;
                     }
-                },
-            );
+                });
         }
         if clear {
             st.selection = None;
@@ -405,8 +420,11 @@ impl RayscopeApp {
         egui::CollapsingHeader::new("BVH").default_open(true).show(ui, |ui| {
             let stats = st.scene.bvh_stats();
             ui.label(format!(
-                "{} nodes, {} leaves, {} levels, {:.1} per leaf",
-                stats.nodes, stats.leaves, stats.levels, stats.mean_leaf_size
+                "binary tree: {}, {}, {}, {:.1} primitives per leaf",
+                counted(stats.nodes as u64, "node", "nodes"),
+                counted(stats.leaves as u64, "leaf", "leaves"),
+                counted(stats.levels as u64, "level", "levels"),
+                stats.mean_leaf_size
             ));
             let mut on = st.bvh_level.is_some();
             ui.checkbox(&mut on, "Show BVH level")
@@ -517,7 +535,11 @@ impl RayscopeApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             return;
         }
-        let ready = self.worker.frames_posted() >= h.frames as u64 && self.last_frame.is_some();
+        // `frames` frames, or fewer when the view's image is complete sooner: the heat map
+        // is one frame (another would be the same), and dynamic accumulation stops at its
+        // maximum. Waiting for frames that never come kept the window open for ever.
+        let posted = self.worker.frames_posted();
+        let ready = self.last_frame.as_ref().is_some_and(|f| f.done || posted >= h.frames as u64);
         if ready && !h.requested {
             h.requested = true;
             let (path, saved, ctx2) = (h.path.clone(), h.saved.clone(), ctx.clone());

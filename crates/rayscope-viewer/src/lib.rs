@@ -7,7 +7,10 @@
 
 pub mod app;
 pub mod files;
+pub mod heat;
+pub mod plural;
 pub mod preview;
+pub mod session;
 pub mod state;
 pub mod trackball;
 pub mod worker;

@@ -5,6 +5,7 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
+use std::time::Instant;
 
 use rayscope::camera::CameraMotion;
 use rayscope::film::FloatImage;
@@ -12,6 +13,8 @@ use rayscope::output::{Encoding, to_rgb8};
 use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::render::{Aov, RenderSettings, render_aov};
 use rayscope::scene::Scene;
+
+use crate::heat::HeatScale;
 
 /// What to render.
 #[derive(Clone)]
@@ -55,6 +58,8 @@ pub struct FrameImage {
     pub generation: u64,
     /// Whether accumulation has finished (the worker idles until the next job).
     pub done: bool,
+    /// For a heat map, its scale and what it measured.
+    pub heat: Option<HeatScale>,
 }
 
 struct Shared {
@@ -131,25 +136,20 @@ impl Drop for Worker {
 fn to_frame(image: FloatImage, frames: u32, spp: u32, mrays_per_s: f64, generation: u64, done: bool) -> FrameImage {
     let rgb = to_rgb8(&image, Encoding::Linear);
     let rgba = rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect();
-    FrameImage { width: image.width, height: image.height, rgba, image, frames, spp, mrays_per_s, generation, done }
+    let (width, height) = (image.width, image.height);
+    FrameImage { width, height, rgba, image, frames, spp, mrays_per_s, generation, done, heat: None }
 }
 
-/// A blue-to-red ramp for the heat map, from 0 (no node) to `max` nodes visited.
-fn heat_image(aov: &FloatImage) -> FloatImage {
-    let max = aov.data.iter().copied().fold(1.0f32, f32::max);
-    let ramp = [[0.0, 0.0, 0.3], [0.0, 0.4, 1.0], [0.0, 0.9, 0.5], [1.0, 0.9, 0.0], [1.0, 0.1, 0.0]];
-    let data = aov
-        .data
-        .iter()
-        .flat_map(|&v| {
-            let t = (v / max).clamp(0.0, 1.0) * (ramp.len() - 1) as f32;
-            let i = (t as usize).min(ramp.len() - 2);
-            let f = t - i as f32;
-            let (a, b) = (ramp[i], ramp[i + 1]);
-            [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]
-        })
-        .collect();
-    FloatImage { width: aov.width, height: aov.height, channels: 3, data }
+/// The heat map of `job`'s camera: one frame, complete (the traversal is deterministic, so
+/// another frame would be the same image).
+fn heat_frame(job: &RenderJob, pool: &rayon::ThreadPool) -> FrameImage {
+    let start = Instant::now();
+    let aov = pool.install(|| render_aov(&job.scene, &job.settings, &job.camera.start, Aov::NodesVisited, &|_| {}));
+    let millis = start.elapsed().as_secs_f64() * 1e3;
+    let wide = &job.scene.geometry.wide;
+    let scale = HeatScale::of(&aov, wide.width(), wide.node_count(), millis);
+    let frame = to_frame(scale.image(&aov), 1, 1, scale.mrays_per_s(), job.generation, true);
+    FrameImage { heat: Some(scale), ..frame }
 }
 
 fn run(shared: &Shared, repaint: &(dyn Fn() + Send + Sync)) {
@@ -187,10 +187,7 @@ fn run(shared: &Shared, repaint: &(dyn Fn() + Send + Sync)) {
         };
         finished = None;
         if job.heat_map {
-            let aov =
-                pool.install(|| render_aov(&job.scene, &job.settings, &job.camera.start, Aov::NodesVisited, &|_| {}));
-            let frame = to_frame(heat_image(&aov), 1, 1, 0.0, job.generation, true);
-            post(shared, frame, repaint);
+            post(shared, heat_frame(&job, &pool), repaint);
             finished = Some(job);
             continue;
         }

@@ -2,6 +2,8 @@
 //! scene, click a pixel, toggle views and settings by their labels, and check the state and
 //! the pixels of the 3D view.
 
+use std::path::Path;
+use std::sync::Once;
 use std::time::{Duration, Instant};
 
 use egui::{Event, Modifiers, PointerButton, Pos2};
@@ -12,6 +14,13 @@ use rayscope_viewer::{RayscopeApp, ViewerOptions};
 
 /// The app in a 1440x900 harness, or `None` (with a notice) where no wgpu adapter exists.
 fn harness(opts: ViewerOptions) -> Option<Harness<'static, RayscopeApp>> {
+    static QUIET: Once = Once::new();
+    QUIET.call_once(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xdg-runtime");
+        // SAFETY: every test that starts wgpu (or any thread of the app) comes through here
+        // and waits for this call to end, so no other thread touches the environment.
+        unsafe { rayscope_viewer::session::quiet_wayland_probe(&dir) }.expect("a private runtime dir");
+    });
     let built = std::panic::catch_unwind(move || {
         Harness::builder()
             .with_size([1440.0, 900.0])
@@ -123,6 +132,54 @@ fn views_and_settings_by_their_labels() {
     h.get_by_label("Heat map").click();
     h.run_steps(2);
     assert_eq!(h.state().state.view, ViewKind::HeatMap);
+}
+
+#[test]
+fn the_heat_map_has_a_legend_that_says_what_it_measured() {
+    let opts = ViewerOptions { scene: "cornell-box".into(), view: Some(ViewKind::HeatMap), ..Default::default() };
+    let Some(mut h) = harness(opts) else { return };
+    wait_frames(&mut h, 1);
+    let scale = h.state().last_frame().and_then(|f| f.heat).expect("a heat-map frame carries its scale");
+    assert!(scale.min <= scale.max && scale.max > 0 && scale.rays == 800 * 800, "{scale:?}");
+    assert!(scale.millis > 0.0 && scale.mrays_per_s() > 0.0, "it measured its rays: {scale:?}");
+    h.get_by_label_contains("node boxes tested per camera ray");
+    h.get_by_label_contains("camera rays (one per pixel)");
+    // The Cornell box's rays all test as many boxes: the legend says so rather than showing
+    // a scale with one value.
+    if scale.min == scale.max {
+        h.get_by_label_contains("no spread to show");
+    } else {
+        h.get_by_label_contains("boxes per ray");
+    }
+    // What the frames panel shows for a render (frames, Mrays/s) is not shown for a heat map.
+    assert!(h.query_by_label_contains("samples/pixel").is_none());
+}
+
+/// `--screenshot` with `--frames 2` in every view: each must save its screenshot and ask the
+/// window to close (the heat map, one frame, never reached two and kept the window open).
+#[test]
+fn every_view_finishes_its_frames_and_saves_the_screenshot() {
+    let dir = tempfile::tempdir().unwrap();
+    for view in [ViewKind::Raster, ViewKind::RayTraced, ViewKind::HeatMap] {
+        let shot = dir.path().join(format!("{view:?}.png"));
+        let opts = ViewerOptions {
+            scene: "cornell-box".into(),
+            view: Some(view),
+            screenshot: Some(shot.clone()),
+            frames: 2,
+            ..Default::default()
+        };
+        let Some(mut h) = harness(opts) else { return };
+        let start = Instant::now();
+        while h.state().headless_outcome().is_none() {
+            assert!(start.elapsed() < Duration::from_secs(120), "{view:?}: no screenshot after 120 s");
+            std::thread::sleep(Duration::from_millis(20));
+            h.run_steps(1);
+        }
+        assert_eq!(h.state().headless_outcome(), Some(Ok(())), "{view:?}: the screenshot was saved");
+        let img = image::open(&shot).unwrap_or_else(|e| panic!("{view:?}: {e}"));
+        assert!(img.width() >= 800 && img.height() >= 600, "{view:?}: the whole window");
+    }
 }
 
 #[test]

@@ -28,14 +28,16 @@ pub enum Error {
     },
     /// A scene needs a course file that is not in the asset folder.
     #[error(
-        "{path}: not found; scene '{scene}' needs the course's scene files. Point --assets (or the \
-         RAYSCOPE_ASSETS environment variable) at the folder that holds them (shared/scenes)"
+        "{path}: not found; scene '{scene}' needs the course's scene files. {searched}. Point --assets DIR \
+         (or the RAYSCOPE_ASSETS environment variable) at the folder that holds them"
     )]
     MissingAsset {
         /// The scene that needs it.
         scene: String,
         /// Where it was looked for.
         path: PathBuf,
+        /// Which folder was searched and how it was chosen (or why there was none).
+        searched: String,
     },
     /// No built-in scene has this name.
     #[error("unknown scene '{name}'; built-in scenes: {known}")]

@@ -185,6 +185,31 @@ pub fn default_assets() -> Option<PathBuf> {
     p.is_dir().then_some(p)
 }
 
+/// For a missing course file: the asset folder that was searched and how it was chosen, or
+/// why there was none, with the working directory that relative folders start from.
+fn searched_folder(given: bool, dir: Option<&Path>) -> String {
+    let shown = |d: &Path| match std::path::absolute(d) {
+        Ok(abs) if abs != d => format!("{} ({})", d.display(), abs.display()),
+        _ => d.display().to_string(),
+    };
+    match dir {
+        Some(d) if given => format!("Searched the asset folder given (--assets): {}", shown(d)),
+        Some(d) if std::env::var_os("RAYSCOPE_ASSETS").is_some_and(|v| !v.is_empty()) => {
+            format!("Searched the asset folder named by RAYSCOPE_ASSETS: {}", shown(d))
+        }
+        Some(d) => {
+            format!("Searched the default asset folder, ../shared/scenes beside the working directory: {}", shown(d))
+        }
+        None => {
+            let cwd = std::env::current_dir().map_or_else(|_| "?".into(), |d| d.display().to_string());
+            format!(
+                "No asset folder: neither --assets nor RAYSCOPE_ASSETS is set, and the default, \
+                 ../shared/scenes beside the working directory ({cwd}), does not exist"
+            )
+        }
+    }
+}
+
 impl SceneDesc {
     /// Parse a TOML scene file's text; errors name `path` and the line.
     pub fn from_toml(text: &str, path: &Path) -> Result<SceneDesc> {
@@ -271,13 +296,11 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
     let file = match (&d.path, &d.asset, &d.vertices) {
         (Some(p), None, None) => Some(ctx.base_dir.join(p)),
         (None, Some(a), None) => {
-            let dir = ctx.assets.clone().or_else(default_assets).ok_or_else(|| Error::MissingAsset {
-                scene: scene.to_string(),
-                path: PathBuf::from("../shared/scenes").join(a),
-            })?;
-            let p = dir.join(a);
+            let dir = ctx.assets.clone().or_else(default_assets);
+            let p = dir.as_ref().map_or_else(|| a.clone(), |d| d.join(a));
             if !p.is_file() {
-                return Err(Error::MissingAsset { scene: scene.to_string(), path: p });
+                let searched = searched_folder(ctx.assets.is_some(), dir.as_deref());
+                return Err(Error::MissingAsset { scene: scene.to_string(), path: p, searched });
             }
             Some(p)
         }

@@ -1,0 +1,558 @@
+//! `rayscope`: render course scenes to image files, list and export the built-in scenes,
+//! print one pixel's ray tree, measure the course's table, and open the viewer.
+//!
+//! The command line is a library with one entry point, [`main`], that the binary calls: a
+//! library can be a dependency, which is how the viewer's tests turn on this crate's `viewer`
+//! feature, so that `cargo test --workspace` builds `rayscope view` and tests it while a
+//! plain `cargo run -p rayscope-cli -- render` builds no GUI at all (see `Cargo.toml`).
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+mod bench;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayscope::camera::CameraDesc;
+use rayscope::film::Film;
+use rayscope::filter::PixelFilter;
+use rayscope::material::TextureFilter;
+use rayscope::math::Vec3;
+use rayscope::output::{Encoding, Format, write_image};
+use rayscope::progressive::{ImagingMode, Progressive};
+use rayscope::record::RayTree;
+use rayscope::render::{Aov, RenderSettings, render_aov, render_cancellable, trace_pixel};
+use rayscope::scene::{Scene, builtin};
+
+#[derive(Parser)]
+#[command(name = "rayscope", version, about = "A fast, inspectable Whitted-style ray tracer")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to an image file (.png, .exr or .pfm).
+    Render(RenderArgs),
+    /// List the built-in scenes, or print one as a TOML scene file.
+    Scenes {
+        /// Print this built-in scene as TOML instead of listing them.
+        #[arg(long, value_name = "NAME")]
+        export: Option<String>,
+    },
+    /// Trace one pixel and print its ray tree as JSON.
+    Debug(DebugArgs),
+    /// Measure the course report's performance table on this machine.
+    Bench(BenchArgs),
+    /// Open the viewer and visual debugger (needs the `viewer` feature: `cargo run -p
+    /// rayscope-cli --features viewer -- view`).
+    View(ViewArgs),
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Folder with the course's scene files (rows that need them are skipped without); else
+    /// the RAYSCOPE_ASSETS environment variable, else ../shared/scenes when it exists.
+    #[arg(long, value_name = "DIR")]
+    assets: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Renders per row; the fastest counts.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    repetitions: usize,
+    /// Renders per row before measuring.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    warmup: usize,
+    /// One render per row and no warm-up: every row, fast (a smoke run for CI).
+    #[arg(long)]
+    quick: bool,
+    /// Also write the table as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Also write the table as CSV.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct ViewArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Save a screenshot of the whole window here after --frames frames, and quit.
+    #[arg(long, value_name = "FILE")]
+    screenshot: Option<PathBuf>,
+    /// Debug this pixel (X,Y from the top-left) from the start.
+    #[arg(long, value_parser = parse_pixel, value_name = "X,Y")]
+    debug_pixel: Option<(u32, u32)>,
+    /// Show this BVH level from the start.
+    #[arg(long, value_name = "L")]
+    bvh_level: Option<u32>,
+    /// Of the BVH level, draw only the nodes the debug pixel's camera ray entered.
+    #[arg(long, requires = "bvh_level")]
+    bvh_visited: bool,
+    /// After selecting the debug pixel, turn the camera by these angles (degrees about x and
+    /// y) to see its ray tree from the side.
+    #[arg(long, value_name = "DX,DY", value_parser = parse_orbit)]
+    orbit: Option<(f32, f32)>,
+    /// Ray-traced frames to render before the screenshot; fewer when the image is complete
+    /// sooner (the heat map is one frame).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    frames: u32,
+    /// The view to start in.
+    #[arg(long, value_enum, default_value = "raster")]
+    view: ViewArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ViewArg {
+    Raster,
+    Traced,
+    HeatMap,
+}
+
+#[derive(Args)]
+struct SceneArgs {
+    /// A built-in scene name (see `rayscope scenes`), a .toml scene file or an .obj file.
+    #[arg(default_value = builtin::DEFAULT_SCENE)]
+    scene: String,
+    /// Folder with the course's scene files; else the RAYSCOPE_ASSETS environment variable,
+    /// else ../shared/scenes when it exists (relative to the working directory).
+    #[arg(long, value_name = "DIR")]
+    assets: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    #[command(flatten)]
+    settings: SettingsArgs,
+}
+
+/// Overrides of [`RenderSettings`]; each given flag wins over the scene file's `[render]`.
+#[derive(Args)]
+struct SettingsArgs {
+    /// Image width in pixels [default: 800].
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels [default: 800].
+    #[arg(long)]
+    height: Option<u32>,
+    /// Deepest reflection/transparency recursion [default: 5].
+    #[arg(long, value_name = "N")]
+    max_depth: Option<u32>,
+    /// Show unlit diffuse colours (the course's "shading off").
+    #[arg(long)]
+    no_shading: bool,
+    /// Cast no shadow rays.
+    #[arg(long)]
+    no_shadows: bool,
+    /// No mirror reflections.
+    #[arg(long)]
+    no_reflections: bool,
+    /// Treat every surface as opaque.
+    #[arg(long)]
+    no_transparency: bool,
+    /// Ignore diffuse textures.
+    #[arg(long)]
+    no_textures: bool,
+    /// Interpolate vertex normals (smooth shading).
+    #[arg(long)]
+    interpolate_normals: bool,
+    /// Texture filtering [default: bilinear].
+    #[arg(long, value_enum)]
+    texture_filter: Option<TextureFilter>,
+    /// Samples (camera rays) per pixel, for anti-aliasing and motion blur [default: 1]; with
+    /// --progressive, samples per frame.
+    #[arg(long, value_name = "N")]
+    spp: Option<u32>,
+    /// Shadow rays per area light (soft shadows); 0 shades lights from their centre [default: 0].
+    #[arg(long, value_name = "N")]
+    light_samples: Option<u32>,
+    /// Rays per glossy reflection; 0 reflects as a perfect mirror [default: 0].
+    #[arg(long, value_name = "N")]
+    gloss_samples: Option<u32>,
+    /// Pixel filter for anti-aliasing [default: box].
+    #[arg(long, value_enum)]
+    filter: Option<PixelFilter>,
+    /// Seed of the random numbers [default: 0].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// The camera's pose when the shutter closes (motion blur): trackball rotation in degrees,
+    /// optionally followed by a distance: `RX,RY,RZ[,DIST]`.
+    #[arg(long, value_name = "RX,RY,RZ[,DIST]", value_parser = parse_camera_end)]
+    camera_end: Option<CameraEnd>,
+}
+
+/// The `--camera-end` pose: trackball rotation and, optionally, distance.
+#[derive(Clone, Copy, Debug)]
+struct CameraEnd {
+    rotation: Vec3,
+    distance: Option<f32>,
+}
+
+fn parse_camera_end(s: &str) -> Result<CameraEnd, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|_| format!("'{p}' is not a number")))
+        .collect::<Result<_, _>>()?;
+    if !(3..=4).contains(&v.len()) || v.iter().any(|x| !x.is_finite()) {
+        return Err("expected RX,RY,RZ or RX,RY,RZ,DIST (finite numbers)".into());
+    }
+    Ok(CameraEnd { rotation: Vec3::new(v[0], v[1], v[2]), distance: v.get(3).copied() })
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Output file; the format follows the extension (.png, .exr, .pfm).
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// Apply the sRGB curve to PNG output (default: the course's linear clamp to [0,1] x 255).
+    #[arg(long)]
+    srgb: bool,
+    /// Write this buffer instead of colour (needs .exr or .pfm).
+    #[arg(long, value_enum)]
+    aov: Option<Aov>,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Render in frames of --spp samples, accumulating until --target-spp, --time-limit or
+    /// Ctrl-C.
+    #[arg(long)]
+    progressive: bool,
+    /// With --progressive: stop at this many samples per pixel.
+    #[arg(long, value_name = "N", requires = "progressive")]
+    target_spp: Option<u32>,
+    /// With --progressive: stop after the frame that passes this many seconds.
+    #[arg(long, value_name = "SECONDS", requires = "progressive")]
+    time_limit: Option<f64>,
+    /// Render this many times in one process and report the fastest render (every render
+    /// gives the same image): timings with warm caches and threads, for comparisons.
+    #[arg(long, value_name = "N", default_value_t = 1, conflicts_with = "progressive",
+          value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeat: u32,
+}
+
+#[derive(Args)]
+struct DebugArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// The pixel, `X,Y` from the top-left corner.
+    #[arg(long, value_parser = parse_pixel)]
+    pixel: (u32, u32),
+    /// Which of the pixel's samples to trace (0 to spp - 1).
+    #[arg(long, default_value_t = 0)]
+    sample: u32,
+}
+
+fn parse_orbit(s: &str) -> Result<(f32, f32), String> {
+    let (x, y) = s.split_once(',').ok_or("expected DX,DY")?;
+    let p = |v: &str| v.trim().parse::<f32>().ok().filter(|v| v.is_finite()).ok_or(format!("'{v}' is not a number"));
+    Ok((p(x)?, p(y)?))
+}
+
+fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let (x, y) = s.split_once(',').ok_or("expected X,Y")?;
+    let p = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("'{v}' is not a pixel coordinate"));
+    Ok((p(x)?, p(y)?))
+}
+
+/// The exit status of a render that Ctrl-C stopped (after writing the image it had): the
+/// shell's convention for a process ended by SIGINT (128 + 2), so that a script can tell it
+/// from a finished render.
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// Run the command line on the process's arguments: 0 when done, 130 for a render stopped by
+/// Ctrl-C, 1 (after printing the error) on failure.
+pub fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    let done = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
+    match cli.command {
+        Command::Render(args) => cmd_render(args),
+        Command::Scenes { export } => done(cmd_scenes(export)),
+        Command::Debug(args) => done(cmd_debug(args)),
+        Command::Bench(args) => done(cmd_bench(args)),
+        Command::View(args) => done(cmd_view(args)),
+    }
+}
+
+fn cmd_scenes(export: Option<String>) -> Result<()> {
+    if let Some(name) = export {
+        print!("{}", builtin::scene_desc(&name)?.to_toml());
+        return Ok(());
+    }
+    for b in builtin::BUILTINS {
+        let files = if b.needs_assets { " (needs the asset folder)" } else { "" };
+        println!("{:<34}{}{}", b.name, b.description, files);
+    }
+    Ok(())
+}
+
+/// Load the scene and merge settings: defaults, then the scene's `[render]`, then flags.
+fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
+    let scene = Scene::load(&args.scene, args.assets.as_deref())?;
+    let mut s = scene.render.clone().unwrap_or_default();
+    let f = &args.settings;
+    s.width = f.width.unwrap_or(s.width);
+    s.height = f.height.unwrap_or(s.height);
+    s.max_depth = f.max_depth.unwrap_or(s.max_depth);
+    s.shading &= !f.no_shading;
+    s.shadows &= !f.no_shadows;
+    s.reflections &= !f.no_reflections;
+    s.transparency &= !f.no_transparency;
+    s.textures &= !f.no_textures;
+    s.interpolate_normals |= f.interpolate_normals;
+    s.spp = f.spp.unwrap_or(s.spp);
+    s.light_samples = f.light_samples.unwrap_or(s.light_samples);
+    s.gloss_samples = f.gloss_samples.unwrap_or(s.gloss_samples);
+    s.seed = f.seed.unwrap_or(s.seed);
+    s.filter = f.filter.unwrap_or(s.filter);
+    s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
+    s.validate()?;
+    let mut scene = scene;
+    if let Some(end) = &f.camera_end {
+        let CameraDesc::Trackball { look_at, distance, fov, .. } = scene.camera else {
+            bail!("--camera-end needs a trackball camera; give a look-at scene's end pose as `camera_end` in its file");
+        };
+        let distance = end.distance.unwrap_or(distance);
+        scene.camera_end = Some(CameraDesc::Trackball { look_at, distance, rotation: end.rotation, fov });
+    }
+    Ok((scene, s))
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    if threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    Ok(rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?)
+}
+
+fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
+    let format = Format::from_path(&args.output)?;
+    if args.aov.is_some() && !format.is_float() {
+        bail!("{}: AOVs are float data; write them to .exr or .pfm", args.output.display());
+    }
+    if args.time_limit.is_some_and(|t| !t.is_finite() || t < 0.0) {
+        bail!("--time-limit must be a number of seconds, at least 0");
+    }
+    if args.target_spp.is_some_and(|t| t == 0 || t > rayscope::render::MAX_SAMPLES) {
+        bail!("--target-spp must be 1 to {}", rayscope::render::MAX_SAMPLES);
+    }
+    let load_start = std::time::Instant::now();
+    let (scene, settings) = load(&args.scene)?;
+    // Loading includes the BVH build, reported apart.
+    let load_ms = (load_start.elapsed().as_secs_f64() - scene.build_time.as_secs_f64()) * 1e3;
+    let pool = thread_pool(args.scene.threads)?;
+    let total = settings.width as u64 * settings.height as u64;
+    let bar = ProgressBar::with_draw_target(
+        Some(total),
+        if args.quiet || !std::io::stderr().is_terminal() {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        },
+    );
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {bar:40} {percent:>3}% {elapsed} (eta {eta})").expect("valid template"),
+    );
+    let progress = |p: rayscope::render::RenderProgress| bar.set_position(p.done as u64);
+    let encoding = if args.srgb { Encoding::Srgb } else { Encoding::Linear };
+    let stats = scene.bvh_stats();
+    let summary = |what: &str| {
+        format!(
+            "{}: {}, load {load_ms:.1} ms, BVH {:.1} ms ({}), {what} -> {}",
+            scene.name,
+            counted(scene.triangle_count() as u64, "triangle", "triangles"),
+            scene.build_time.as_secs_f64() * 1e3,
+            counted(stats.levels as u64, "level", "levels"),
+            args.output.display()
+        )
+    };
+    if let Some(aov) = args.aov {
+        let start = std::time::Instant::now();
+        let img = pool.install(|| render_aov(&scene, &settings, &scene.camera(), aov, &progress));
+        bar.finish_and_clear();
+        write_image(&img, &args.output, encoding)?;
+        eprintln!("{}", summary(&format!("AOV in {:.1} ms", start.elapsed().as_secs_f64() * 1e3)));
+        return Ok(ExitCode::SUCCESS);
+    }
+    let cancel = interrupt_flag();
+    let (film, rays, elapsed) = if args.progressive {
+        if args.target_spp.is_none() && args.time_limit.is_none() {
+            eprintln!("rendering progressively until Ctrl-C (give --target-spp or --time-limit to stop by itself)");
+        }
+        if let Some(target) = args.target_spp {
+            bar.set_length(target as u64);
+        }
+        bar.set_position(0);
+        let start = std::time::Instant::now();
+        let mut prog = Progressive::new(settings.clone(), ImagingMode::Dynamic, args.target_spp);
+        let limit = args.time_limit.map(std::time::Duration::from_secs_f64);
+        let rays = pool.install(|| {
+            prog.run(&scene, &scene.camera_motion(), limit, &cancel, |film, _| {
+                bar.set_position(film.sample_range().0 as u64);
+                std::ops::ControlFlow::Continue(())
+            })
+        });
+        (prog.film().clone(), rays, start.elapsed())
+    } else {
+        let mut out = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));
+        let mut fastest = out.elapsed;
+        for _ in 1..args.repeat {
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
+            bar.set_position(0);
+            let again = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));
+            if cancel.load(Ordering::Relaxed) {
+                // Keep the complete image of an earlier render.
+                break;
+            }
+            fastest = fastest.min(again.elapsed);
+            out = again;
+        }
+        (out.film, out.rays, fastest)
+    };
+    bar.finish_and_clear();
+    write_image(&film.to_image(), &args.output, encoding)
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    let mrays = rays.total() as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
+    eprintln!(
+        "{}",
+        summary(&format!(
+            "render {:.1} ms{}, {}, {mrays:.2} Mrays/s",
+            elapsed.as_secs_f64() * 1e3,
+            if args.repeat > 1 { format!(" (fastest of {})", args.repeat) } else { String::new() },
+            samples_note(&film)
+        ))
+    );
+    if cancel.load(Ordering::Relaxed) {
+        eprintln!(
+            "interrupted: the image holds what was rendered ({}); exit status {EXIT_INTERRUPTED}",
+            samples_note(&film)
+        );
+        return Ok(ExitCode::from(EXIT_INTERRUPTED));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(not(feature = "viewer"))]
+fn cmd_view(_: ViewArgs) -> Result<()> {
+    bail!(
+        "this rayscope was built without the viewer (it is the `viewer` feature, as it needs the GUI \
+         stack, eframe and wgpu, whose first build takes minutes). Run it with `cargo run -p rayscope-cli \
+         --features viewer -- view [SCENE] [options]`, or install it with `cargo install --path \
+         crates/rayscope-cli --features viewer`"
+    )
+}
+
+#[cfg(feature = "viewer")]
+fn cmd_view(args: ViewArgs) -> Result<()> {
+    use rayscope_viewer::session;
+    use rayscope_viewer::state::ViewKind;
+    // First, while this is the only thread: a private runtime dir where the session has none,
+    // so that the Vulkan driver's probe for Wayland prints no error (see `session`).
+    let runtime = tempfile::Builder::new().prefix("rayscope-runtime-").tempdir()?;
+    // SAFETY: no other thread exists yet (rayon's pool starts with the scene's BVH build below).
+    unsafe { session::quiet_wayland_probe(runtime.path()) }?;
+    session::check_display()?;
+    // Check the scene and flags here, so that mistakes are reported on the terminal.
+    let (_, settings) = load(&args.scene)?;
+    let view = match args.view {
+        ViewArg::Raster => ViewKind::Raster,
+        ViewArg::Traced => ViewKind::RayTraced,
+        ViewArg::HeatMap => ViewKind::HeatMap,
+    };
+    rayscope_viewer::run(rayscope_viewer::ViewerOptions {
+        scene: args.scene.scene.clone(),
+        assets: args.scene.assets.clone(),
+        settings: Some(settings),
+        view: Some(view),
+        debug_pixel: args.debug_pixel,
+        bvh_level: args.bvh_level,
+        orbit: args.orbit,
+        bvh_only_visited: args.bvh_visited,
+        screenshot: args.screenshot,
+        frames: args.frames,
+    })
+}
+
+fn cmd_bench(args: BenchArgs) -> Result<()> {
+    let pool = thread_pool(args.threads)?;
+    let (reps, warmup) = if args.quick { (1, 0) } else { (args.repetitions.max(1), args.warmup) };
+    let threads = pool.current_num_threads();
+    let report = pool.install(|| bench::run(args.assets.as_deref(), reps, warmup, threads))?;
+    print!("{}", bench::markdown(&report));
+    if let Some(p) = &args.json {
+        bench::write_text(p, &serde_json::to_string_pretty(&report)?)?;
+    }
+    if let Some(p) = &args.csv {
+        bench::write_text(p, &bench::csv(&report))?;
+    }
+    Ok(())
+}
+
+fn samples_note(film: &Film) -> String {
+    match film.sample_range() {
+        (a, b) if a == b => format!("{a} spp"),
+        (a, b) => format!("{a} to {b} spp"),
+    }
+}
+
+/// `n` and the noun, singular (`one`) for one: "1 triangle", "2 triangles".
+fn counted(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// A flag that Ctrl-C sets, so renders stop cleanly and write what they have; a second Ctrl-C
+/// exits at once.
+fn interrupt_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    let _ = ctrlc::set_handler(move || {
+        if f.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED.into());
+        }
+    });
+    flag
+}
+
+fn cmd_debug(args: DebugArgs) -> Result<()> {
+    let (scene, settings) = load(&args.scene)?;
+    let (x, y) = args.pixel;
+    if x >= settings.width || y >= settings.height {
+        bail!("pixel {x},{y} is outside the {}x{} image", settings.width, settings.height);
+    }
+    let mut tree = RayTree::default();
+    if args.sample >= settings.spp {
+        bail!(
+            "sample {} does not exist: the pixel has {} (--spp)",
+            args.sample,
+            counted(settings.spp.into(), "sample", "samples")
+        );
+    }
+    let color = trace_pixel(&scene, &settings, &scene.camera_motion(), x, y, args.sample, &mut tree);
+    let json = serde_json::json!({
+        "scene": scene.name,
+        "pixel": [x, y],
+        "sample": args.sample,
+        "color": color.to_array(),
+        "rays": tree.rays,
+    });
+    println!("{}", serde_json::to_string_pretty(&json)?);
+    Ok(())
+}
