@@ -4,8 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use rayscope::render::{RenderSettings, render};
+use rayscope::render::render;
 use rayscope::scene::{Geometry, Scene};
+use rayscope::settings::RenderSettings;
 use serde::Serialize;
 
 /// One row of the table: a scene and the settings the course measured it with.
@@ -130,8 +131,7 @@ fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
         .and_then(|s| s.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l[12..].trim_matches('"').to_string()))
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let simd =
-        format!("{:?}, {}-wide BVH", rayscope::bvh::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
+    let simd = format!("{:?}, {}-wide BVH", rayscope::bvh::SimdLevel::detect(), rayscope::bvh::WideTree::best_width());
     Machine { cpu, cores, threads, os, resolution: "800x800".into(), repetitions, warmup, simd }
 }
 

@@ -6,12 +6,13 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 
+use rayscope::aov::{Aov, render_aov};
 use rayscope::camera::CameraMotion;
 use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, to_rgb8};
 use rayscope::progressive::{ImagingMode, Progressive};
-use rayscope::render::{Aov, RenderSettings, render_aov};
 use rayscope::scene::Scene;
+use rayscope::settings::RenderSettings;
 
 /// What to render.
 #[derive(Clone)]

@@ -7,9 +7,9 @@ use crate::light::LightSample;
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
 use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent};
-use crate::render::RenderSettings;
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Hit, Scene, SurfaceInteraction};
+use crate::settings::{RenderSettings, ShadingOptions};
 
 /// Light samples per shading point from which their shadow rays share one BVH query
 /// ([`Scene::shadow_group`]); below it, the query costs more than it saves.
@@ -63,12 +63,14 @@ pub struct Integrator<'a> {
     pub scene: &'a Scene,
     /// The settings.
     pub settings: &'a RenderSettings,
+    /// The settings' part that the scene's surface queries read.
+    pub shading: ShadingOptions,
 }
 
 impl<'a> Integrator<'a> {
     /// An integrator for this scene and these settings.
     pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
-        Integrator { scene, settings }
+        Integrator { scene, settings, shading: settings.shading_options() }
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`.
@@ -94,7 +96,7 @@ impl<'a> Integrator<'a> {
                 self.settings.background
             }
             Some(hit) => {
-                let si = self.scene.surface(ray, &hit, self.settings);
+                let si = self.scene.surface(ray, &hit, &self.shading);
                 if R::RECORDS {
                     ctx.recorder.hit(Some(RecordedHit {
                         t: hit.t,
@@ -273,7 +275,7 @@ impl<'a> Integrator<'a> {
         let ray = Ray::spawn_towards(si.point, si.geo_normal, ls.wi, ls.distance, time);
         let t = match group {
             Some(occ) => self.scene.transmittance_among(&ray, occ),
-            None => self.scene.transmittance(&ray, self.settings),
+            None => self.scene.transmittance(&ray, &self.shading),
         };
         if R::RECORDS {
             // Only the debugger wants to know where the blocker is: an extra query, never paid

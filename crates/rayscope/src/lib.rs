@@ -7,7 +7,7 @@
 //! inputs onto these types.
 //!
 //! ```
-//! use rayscope::{render::{render, RenderSettings}, scene::{builtin, LoadContext, Scene}};
+//! use rayscope::{render::render, scene::{builtin, LoadContext, Scene}, settings::RenderSettings};
 //!
 //! let desc = builtin::scene_desc("cornell-box").unwrap();
 //! let scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
@@ -17,6 +17,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod aov;
 pub mod bvh;
 pub mod camera;
 pub mod error;
@@ -35,5 +36,6 @@ pub mod record;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod settings;
 
 pub use error::{Error, Result};

@@ -11,14 +11,14 @@ use std::time::{Duration, Instant};
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape, SlotInfo};
 
-use crate::bvh::{Occluders, BvhStats, NoObserver, NodeLog, TraversalObserver};
+use crate::bvh::{BvhStats, NoObserver, NodeLog, Occluders, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
 use crate::light::Light;
 use crate::material::{Material, Texture};
 use crate::math::{Color, Vec2, Vec3A, face_forward};
 use crate::ray::Ray;
-use crate::render::RenderSettings;
+use crate::settings::{RenderSettings, ShadingOptions};
 
 /// A triangle mesh with per-vertex attributes and a material per triangle.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -321,7 +321,7 @@ impl Scene {
     }
 
     /// Shading information at `hit` on `ray`.
-    pub fn surface(&self, ray: &Ray, hit: &Hit, settings: &RenderSettings) -> SurfaceInteraction {
+    pub fn surface(&self, ray: &Ray, hit: &Hit, options: &ShadingOptions) -> SurfaceInteraction {
         let point = ray.at(hit.t);
         // Read in slot order (neighbouring rays, neighbouring slots); the mesh's own arrays
         // only for what the slot does not hold.
@@ -339,7 +339,7 @@ impl Scene {
                     }
                 };
                 let w = Vec3A::new(1.0 - hit.u - hit.v, hit.u, hit.v);
-                let smooth = settings.interpolate_normals && !m.normals.is_empty();
+                let smooth = options.interpolate_normals && !m.normals.is_empty();
                 let (shading, uv) = if smooth || !m.uvs.is_empty() {
                     let [a, b, c] = corners();
                     let shading = if smooth {
@@ -372,8 +372,8 @@ impl Scene {
         let geo_normal = face_forward(geo, -ray.dir);
         let shading_normal = face_forward(shading, geo_normal);
         let mat = &self.materials[material as usize];
-        let kd = match (mat.texture, settings.textures) {
-            (Some(t), true) => self.textures[t].sample(uv, settings.texture_filter),
+        let kd = match (mat.texture, options.textures) {
+            (Some(t), true) => self.textures[t].sample(uv, options.texture_filter),
             _ => mat.kd,
         };
         SurfaceInteraction { point, geo_normal, shading_normal, uv, material, kd }
@@ -382,7 +382,7 @@ impl Scene {
     /// Fraction of light that passes from a surface point along `ray` (a shadow ray): zero
     /// when an opaque surface blocks it; through transparent surfaces, the product of
     /// `kd * (1 - d)` of each surface crossed (coloured shadows, as in the course).
-    pub fn transmittance(&self, ray: &Ray, settings: &RenderSettings) -> Color {
+    pub fn transmittance(&self, ray: &Ray, options: &ShadingOptions) -> Color {
         if !self.has_transparency {
             return if self.occluded(ray) { Color::ZERO } else { Color::ONE };
         }
@@ -398,7 +398,7 @@ impl Scene {
             if mat.transparency >= 1.0 {
                 return Color::ZERO;
             }
-            let si = self.surface(&r, &hit, settings);
+            let si = self.surface(&r, &hit, options);
             t *= si.kd * (1.0 - mat.transparency);
             if t.max_element() <= 0.0 {
                 return Color::ZERO;
