@@ -10,13 +10,16 @@ use rayon::prelude::*;
 use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::film::Film;
-use crate::integrator::{Integrator, PathContext, RayCounts};
+use crate::integrator::{Integrator, PathContext};
 use crate::math::{Color, Vec2};
 use crate::ray::Ray;
 use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
+
+// The counts a render reports, under the name its users meet them by.
+pub use crate::integrator::RayCounts;
 
 /// Progress of a render, as passed to its callback.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

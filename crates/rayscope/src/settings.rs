@@ -5,7 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::math::Color;
+// The colour type of the settings (and of the film), under the name a user meets it by.
+pub use crate::math::Color;
 
 /// Every switch of the renderer. Scene files may set any of them in a `[render]` table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

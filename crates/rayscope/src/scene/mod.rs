@@ -16,13 +16,15 @@ pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape, SlotInfo};
 pub use visibility::LightVisibility;
 
+// What a scene is made of, under the names a user of the scene meets them by.
+pub use crate::light::{Light, LightSample};
+pub use crate::material::{Material, MaterialDesc, Texture};
+pub use crate::ray::Ray;
+
 use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
-use crate::light::Light;
-use crate::material::{Material, Texture};
 use crate::math::{Color, Vec2, Vec3A, face_forward};
-use crate::ray::Ray;
 use crate::settings::{RenderSettings, ShadingOptions};
 
 /// A triangle mesh with per-vertex attributes and a material per triangle.
