@@ -7,8 +7,7 @@ use std::time::{Duration, Instant};
 
 use crate::camera::CameraMotion;
 use crate::film::Film;
-use crate::integrator::RayCounts;
-use crate::render::{RenderProgress, SamplePass, render_pass};
+use crate::render::{RayCounts, RenderProgress, SamplePass, render_pass};
 use crate::sampler::hash;
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
