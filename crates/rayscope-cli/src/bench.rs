@@ -4,8 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use rayscope::render::{RenderSettings, render};
+use rayscope::render::render;
 use rayscope::scene::{Geometry, Scene};
+use rayscope::settings::RenderSettings;
 
 use crate::counted;
 use serde::Serialize;

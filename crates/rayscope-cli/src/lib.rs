@@ -17,16 +17,16 @@ mod bench;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayscope::aov::{Aov, render_aov};
 use rayscope::camera::CameraDesc;
 use rayscope::film::Film;
-use rayscope::filter::PixelFilter;
-use rayscope::material::TextureFilter;
 use rayscope::math::Vec3;
 use rayscope::output::{Encoding, Format, write_image};
 use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::RayTree;
-use rayscope::render::{Aov, RenderSettings, render_aov, render_cancellable, trace_pixel};
+use rayscope::render::{render_cancellable, trace_pixel};
 use rayscope::scene::{Scene, builtin};
+use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
 
 #[derive(Parser)]
 #[command(name = "rayscope", version, about = "A fast, inspectable Whitted-style ray tracer")]
@@ -349,8 +349,8 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
     if args.time_limit.is_some_and(|t| !t.is_finite() || t < 0.0) {
         bail!("--time-limit must be a number of seconds, at least 0");
     }
-    if args.target_spp.is_some_and(|t| t == 0 || t > rayscope::render::MAX_SAMPLES) {
-        bail!("--target-spp must be 1 to {}", rayscope::render::MAX_SAMPLES);
+    if args.target_spp.is_some_and(|t| t == 0 || t > rayscope::settings::MAX_SAMPLES) {
+        bail!("--target-spp must be 1 to {}", rayscope::settings::MAX_SAMPLES);
     }
     let load_start = std::time::Instant::now();
     let (scene, settings) = load(&args.scene)?;

@@ -8,11 +8,9 @@ use std::time::Instant;
 use egui::{Color32, Key, PointerButton, Pos2, Rect, Sense, Stroke, Vec2};
 use rayscope::camera::CameraMotion;
 use rayscope::film::FloatImage;
-use rayscope::filter::PixelFilter;
-use rayscope::material::TextureFilter;
 use rayscope::output::{Encoding, write_image};
-use rayscope::render::RenderSettings;
 use rayscope::scene::builtin;
+use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
 
 use crate::files::{BrowserAction, FileBrowser};
 use crate::plural::counted;

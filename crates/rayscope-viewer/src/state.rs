@@ -12,8 +12,9 @@ use rayscope::light::Light;
 use rayscope::math::Vec3A;
 use rayscope::progressive::ImagingMode;
 use rayscope::record::{RayKind, RayTree};
-use rayscope::render::{RenderSettings, trace_pixel};
+use rayscope::render::trace_pixel;
 use rayscope::scene::{Scene, builtin};
+use rayscope::settings::RenderSettings;
 
 use crate::preview::LineVertex;
 use crate::trackball::Trackball;

@@ -7,12 +7,13 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
+use rayscope::aov::{Aov, render_aov};
 use rayscope::camera::CameraMotion;
 use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, to_rgb8};
 use rayscope::progressive::{ImagingMode, Progressive};
-use rayscope::render::{Aov, RenderSettings, render_aov};
 use rayscope::scene::Scene;
+use rayscope::settings::RenderSettings;
 
 use crate::heat::HeatScale;
 

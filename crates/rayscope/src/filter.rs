@@ -5,23 +5,8 @@
 
 use std::sync::OnceLock;
 
-use serde::{Deserialize, Serialize};
-
 use crate::math::Vec2;
-
-/// A pixel filter.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum PixelFilter {
-    /// Uniform over the pixel (radius 0.5).
-    #[default]
-    Box,
-    /// Triangle (tent) of radius 1 pixel.
-    Tent,
-    /// Gaussian of standard deviation 0.5 pixel, truncated at 1.5 pixels.
-    Gaussian,
-}
+use crate::settings::PixelFilter;
 
 /// Gaussian parameters: sigma and truncation radius, in pixels.
 const SIGMA: f32 = 0.5;

@@ -2,18 +2,13 @@
 //! or soft from sampled area lights), recursive mirror or glossy reflection weighted by `ks`,
 //! and transparency blended by `1 - d`.
 
-use crate::bvh::Occluders;
-use crate::light::LightSample;
+use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
 use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent};
-use crate::render::RenderSettings;
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
-use crate::scene::{Hit, Scene, SurfaceInteraction};
-
-/// Light samples per shading point from which their shadow rays share one BVH query
-/// ([`Scene::shadow_group`]); below it, the query costs more than it saves.
-const GROUP_SHADOW_RAYS: u32 = 4;
+use crate::scene::{Hit, LightVisibility, Scene, SurfaceInteraction};
+use crate::settings::{RenderSettings, ShadingOptions};
 
 /// Counts of rays cast, for throughput figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -63,12 +58,14 @@ pub struct Integrator<'a> {
     pub scene: &'a Scene,
     /// The settings.
     pub settings: &'a RenderSettings,
+    /// The settings' part that the scene's surface queries read.
+    pub shading: ShadingOptions,
 }
 
 impl<'a> Integrator<'a> {
     /// An integrator for this scene and these settings.
     pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
-        Integrator { scene, settings }
+        Integrator { scene, settings, shading: settings.shading_options() }
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`.
@@ -94,7 +91,7 @@ impl<'a> Integrator<'a> {
                 self.settings.background
             }
             Some(hit) => {
-                let si = self.scene.surface(ray, &hit, self.settings);
+                let si = self.scene.surface(ray, &hit, &self.shading);
                 if R::RECORDS {
                     ctx.recorder.hit(Some(RecordedHit {
                         t: hit.t,
@@ -186,33 +183,31 @@ impl<'a> Integrator<'a> {
         let mut sum = Color::ZERO;
         let n = self.settings.light_samples;
         for (i, light) in self.scene.lights.iter().enumerate() {
-            if n == 0 || matches!(light, crate::light::Light::Point { .. }) {
-                sum += self.shade_sample(ray, si, i, &light.center_sample(si.point), None, ctx);
+            if n == 0 || matches!(light, Light::Point { .. }) {
+                let center = light.center_sample(si.point);
+                sum += self.scene.light_visibility(si, light, 1, &self.shading, |vis| {
+                    self.shade_sample(ray, si, i, &center, vis, ctx)
+                });
                 continue;
             }
-            let segment = matches!(light, crate::light::Light::Segment { .. });
+            let segment = matches!(light, Light::Segment { .. });
             let sampler = light.sampler(si.point);
-            // The samples' shadow rays all leave from one origin (the lit side's offset; the
-            // others are culled in `shade_sample`): one BVH query finds what could block any
-            // of them.
-            let group = if self.settings.shadows && n >= GROUP_SHADOW_RAYS {
-                let apex = Ray::spawn_origin(si.point, si.geo_normal, si.geo_normal);
-                self.scene.shadow_group(apex, si.geo_normal, light)
-            } else {
-                None
-            };
-            let strata = Strata2::new(n);
-            let mut acc = Color::ZERO;
-            for k in 0..n {
-                let u = if segment {
-                    Vec2::new(stratum_1d(k, n, ctx.sampler.next_f32()), 0.5)
-                } else {
-                    strata.sample(k, ctx.sampler.next_2d())
-                };
-                let ls = sampler.sample(u);
-                acc += self.shade_sample(ray, si, i, &ls, group.as_ref(), ctx);
-            }
-            sum += acc / n as f32;
+            // The shadow rays the samples will cast: none without shadows.
+            let rays = if self.settings.shadows { n } else { 0 };
+            sum += self.scene.light_visibility(si, light, rays, &self.shading, |vis| {
+                let strata = Strata2::new(n);
+                let mut acc = Color::ZERO;
+                for k in 0..n {
+                    let u = if segment {
+                        Vec2::new(stratum_1d(k, n, ctx.sampler.next_f32()), 0.5)
+                    } else {
+                        strata.sample(k, ctx.sampler.next_2d())
+                    };
+                    let ls = sampler.sample(u);
+                    acc += self.shade_sample(ray, si, i, &ls, vis, ctx);
+                }
+                acc / n as f32
+            });
         }
         sum
     }
@@ -226,7 +221,7 @@ impl<'a> Integrator<'a> {
         si: &SurfaceInteraction,
         light: usize,
         ls: &LightSample,
-        group: Option<&Occluders>,
+        vis: &LightVisibility,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let cos = si.shading_normal.dot(ls.wi);
@@ -235,7 +230,7 @@ impl<'a> Integrator<'a> {
         if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
             return Color::ZERO;
         }
-        let arrived = self.visibility(si, ls, ray.time, light, group, ctx);
+        let arrived = self.visibility(si, ls, ray.time, light, vis, ctx);
         if arrived == Color::ZERO {
             return Color::ZERO;
         }
@@ -254,8 +249,8 @@ impl<'a> Integrator<'a> {
         diffuse + specular
     }
 
-    /// The fraction of light from `ls` that reaches `si` (all of it without shadows), through
-    /// the shading point's shadow `group` where there is one.
+    /// The fraction of light from `ls` that reaches `si` (all of it without shadows), as
+    /// `vis`, the scene's view of the light from `si`, answers.
     #[inline(always)]
     fn visibility<R: RayRecorder>(
         &self,
@@ -263,18 +258,15 @@ impl<'a> Integrator<'a> {
         ls: &LightSample,
         time: f32,
         light: usize,
-        group: Option<&Occluders>,
+        vis: &LightVisibility,
         ctx: &mut PathContext<R>,
     ) -> Color {
         if !self.settings.shadows {
             return Color::ONE;
         }
         ctx.counts.shadow += 1;
-        let ray = Ray::spawn_towards(si.point, si.geo_normal, ls.wi, ls.distance, time);
-        let t = match group {
-            Some(occ) => self.scene.transmittance_among(&ray, occ),
-            None => self.scene.transmittance(&ray, self.settings),
-        };
+        let ray = vis.shadow_ray(si, ls, time);
+        let t = vis.transmittance(&ray);
         if R::RECORDS {
             // Only the debugger wants to know where the blocker is: an extra query, never paid
             // by normal renders.

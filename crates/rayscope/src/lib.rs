@@ -1,13 +1,14 @@
 //! rayscope: a fast, inspectable Whitted-style CPU ray tracer.
 //!
-//! The library holds everything but the user interfaces: scene description and loading
-//! ([`scene`], [`io`]), geometry and the BVH ([`geometry`], [`bvh`]), the Phong/Whitted
-//! integrator ([`integrator`]), the film and image output ([`film`], [`output`]), and the ray
-//! recorder that the visual debugger uses ([`record`]). The CLI and the viewer only map their
-//! inputs onto these types.
+//! The library holds everything but the user interfaces. Its surface is small: a [`scene`] is
+//! loaded (from a file, an OBJ or a built-in) and seen through a [`camera`]; [`settings`] say
+//! how to render it; [`render`] makes an image into a [`film`] (and traces single pixels for
+//! the debugger, whose rays [`record`] keeps), [`progressive`] accumulates frames, [`aov`]
+//! renders per-pixel facts of the first hits, and [`output`] writes images. The CLI and the
+//! viewer only map their inputs onto these types.
 //!
 //! ```
-//! use rayscope::{render::{render, RenderSettings}, scene::{builtin, LoadContext, Scene}};
+//! use rayscope::{render::render, scene::{builtin, LoadContext, Scene}, settings::RenderSettings};
 //!
 //! let desc = builtin::scene_desc("cornell-box").unwrap();
 //! let scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
@@ -15,25 +16,41 @@
 //! let image = render(&scene, &settings, &|_| {});
 //! assert_eq!(image.film.width(), 32);
 //! ```
+//!
+//! Underneath, in layers that import only the ones below them: [`settings`] and the math at
+//! the bottom, then geometry and the BVH, the scene, the integrator, and the renderer on top.
 #![warn(missing_docs)]
 
-pub mod bvh;
+pub mod aov;
 pub mod camera;
-pub mod error;
 pub mod film;
-pub mod filter;
-pub mod geometry;
-pub mod integrator;
-pub mod io;
-pub mod light;
-pub mod material;
-pub mod math;
 pub mod output;
 pub mod progressive;
-pub mod ray;
 pub mod record;
 pub mod render;
-pub mod sampler;
 pub mod scene;
+pub mod settings;
+
+// The layers under the surface: public only for the benches, the tests, the CLI's `bench`
+// command (the BVH) and the viewer (rays, lights, vectors), not documented as the library's.
+#[doc(hidden)]
+pub mod bvh;
+#[doc(hidden)]
+pub mod geometry;
+#[doc(hidden)]
+pub mod light;
+#[doc(hidden)]
+pub mod material;
+#[doc(hidden)]
+pub mod math;
+#[doc(hidden)]
+pub mod ray;
+#[doc(hidden)]
+pub mod sampler;
+
+mod error;
+mod filter;
+mod integrator;
+mod io;
 
 pub use error::{Error, Result};

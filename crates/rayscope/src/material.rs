@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::math::{Color, Vec2};
+use crate::settings::TextureFilter;
 
 /// A Phong material in the course's form.
 #[derive(Clone, Debug, PartialEq)]
@@ -67,18 +68,6 @@ pub struct MaterialDesc {
     /// Exponent of the glossy reflection lobe (default: `shininess`; `inf`: perfect mirror).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub glossiness: Option<f32>,
-}
-
-/// How textures are looked up.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum TextureFilter {
-    /// The texel under the point.
-    Nearest,
-    /// Bilinear blend of the four nearest texels.
-    #[default]
-    Bilinear,
 }
 
 /// An RGB image in linear float values (the course used the 8-bit values / 255 as they are).

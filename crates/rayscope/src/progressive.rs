@@ -7,10 +7,10 @@ use std::time::{Duration, Instant};
 
 use crate::camera::CameraMotion;
 use crate::film::Film;
-use crate::integrator::RayCounts;
-use crate::render::{RenderProgress, RenderSettings, SamplePass, render_pass};
+use crate::render::{RayCounts, RenderProgress, SamplePass, render_pass};
 use crate::sampler::hash;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 
 /// How frames combine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

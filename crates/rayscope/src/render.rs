@@ -1,118 +1,25 @@
-//! Rendering an image: settings, the parallel tile loop, AOVs, and single-sample tracing for
-//! the debugger (the same code path).
+//! Rendering an image: the parallel loop over bands of rows that adds samples to a film, and
+//! single-sample tracing for the debugger (the same code path). The AOVs are in
+//! [`crate::aov`].
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use crate::bvh::{PACKET, TraversalStats};
-use crate::camera::{Camera, CameraMotion, RayGenerator};
-use crate::film::{Film, FloatImage};
-use crate::filter::PixelFilter;
-use crate::integrator::{Integrator, PathContext, RayCounts};
-use crate::material::TextureFilter;
+use crate::bvh::PACKET;
+use crate::camera::{CameraMotion, RayGenerator};
+use crate::film::Film;
+use crate::integrator::{Integrator, PathContext};
 use crate::math::{Color, Vec2};
 use crate::ray::Ray;
 use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 
-/// Every switch of the renderer. Scene files may set any of them in a `[render]` table.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RenderSettings {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Phong shading; off shows each surface's diffuse colour unlit.
-    pub shading: bool,
-    /// Shadow rays towards each light.
-    pub shadows: bool,
-    /// Recursive mirror reflection for materials with `ks > 0`.
-    pub reflections: bool,
-    /// Transparency (MTL `d < 1`) for camera rays and shadows.
-    pub transparency: bool,
-    /// Deepest recursion: rays at this depth cast no reflection or transmission ray.
-    pub max_depth: u32,
-    /// Interpolate vertex normals across triangles (barycentric); off uses face normals.
-    pub interpolate_normals: bool,
-    /// Use diffuse textures (`map_Kd`) in place of `kd`.
-    pub textures: bool,
-    /// How textures are filtered.
-    pub texture_filter: TextureFilter,
-    /// Colour of rays that hit nothing.
-    pub background: Color,
-    /// Samples (camera rays) per pixel: anti-aliasing, and motion blur over the shutter.
-    pub spp: u32,
-    /// Shadow rays per area light ("rays per light"); 0 shades each light from its centre.
-    pub light_samples: u32,
-    /// Rays sampling each glossy reflection; 0 reflects as a perfect mirror.
-    pub gloss_samples: u32,
-    /// Pixel reconstruction filter.
-    pub filter: PixelFilter,
-    /// Seed of every random number; the same seed gives the same image.
-    pub seed: u64,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        RenderSettings {
-            width: 800,
-            height: 800,
-            shading: true,
-            shadows: true,
-            reflections: true,
-            transparency: true,
-            max_depth: 5,
-            interpolate_normals: false,
-            textures: true,
-            texture_filter: TextureFilter::Bilinear,
-            background: Color::ZERO,
-            spp: 1,
-            light_samples: 0,
-            gloss_samples: 0,
-            filter: PixelFilter::Box,
-            seed: 0,
-        }
-    }
-}
-
-/// Largest accepted image side, in pixels (a 16k x 16k float film is already 3 GiB).
-pub const MAX_IMAGE_SIDE: u32 = 16384;
-
-/// Largest accepted count of samples, shadow rays per light or glossy rays.
-pub const MAX_SAMPLES: u32 = 1 << 16;
-
-impl RenderSettings {
-    /// Check that the values make sense (a clear message, not a panic or a huge allocation).
-    pub fn validate(&self) -> Result<(), crate::Error> {
-        let bad = |m: String| Err(crate::Error::Invalid(m));
-        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
-            return bad(format!(
-                "image size {}x{} is out of range: each side must be 1 to {MAX_IMAGE_SIDE}",
-                self.width, self.height
-            ));
-        }
-        if !self.background.is_finite() {
-            return bad("background colour must be finite".into());
-        }
-        if self.max_depth > 64 {
-            return bad(format!("max depth {} is out of range (0 to 64)", self.max_depth));
-        }
-        if self.spp == 0 || self.spp > MAX_SAMPLES {
-            return bad(format!("samples per pixel {} is out of range (1 to {MAX_SAMPLES})", self.spp));
-        }
-        for (what, n) in [("light samples", self.light_samples), ("gloss samples", self.gloss_samples)] {
-            if n > MAX_SAMPLES {
-                return bad(format!("{what} {n} is out of range (0 to {MAX_SAMPLES})"));
-            }
-        }
-        Ok(())
-    }
-}
+// The counts a render reports, under the name its users meet them by.
+pub use crate::integrator::RayCounts;
 
 /// Progress of a render, as passed to its callback.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -141,61 +48,6 @@ impl RenderOutput {
     pub fn mrays_per_second(&self) -> f64 {
         self.rays.total() as f64 / self.elapsed.as_secs_f64().max(1e-9) / 1e6
     }
-}
-
-/// Side of the square tiles the image is cut into: small enough to balance load across
-/// threads, large enough that the rays of a tile stay coherent in cache.
-const TILE: u32 = 16;
-
-#[derive(Clone, Copy)]
-struct Tile {
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
-}
-
-impl Tile {
-    fn pixels(self) -> impl Iterator<Item = (u32, u32)> {
-        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y)))
-    }
-}
-
-fn tiles(width: u32, height: u32) -> Vec<Tile> {
-    let mut v = Vec::new();
-    for y0 in (0..height).step_by(TILE as usize) {
-        for x0 in (0..width).step_by(TILE as usize) {
-            v.push(Tile { x0, y0, x1: (x0 + TILE).min(width), y1: (y0 + TILE).min(height) });
-        }
-    }
-    v
-}
-
-/// Run `f` for every pixel in parallel tiles, skipping tiles not yet started once `cancel` is
-/// set. Returns, per tile, its pixels' results (`None` for skipped tiles). Each result depends
-/// only on its pixel, so the outcome is the same for any number of threads.
-fn per_tile<T: Send>(
-    width: u32,
-    height: u32,
-    cancel: &AtomicBool,
-    progress: &(dyn Fn(RenderProgress) + Sync),
-    f: impl Fn(u32, u32) -> T + Sync,
-) -> Vec<(Tile, Option<Vec<T>>)> {
-    let tiles = tiles(width, height);
-    let done = AtomicUsize::new(0);
-    let total = width as usize * height as usize;
-    tiles
-        .into_par_iter()
-        .map(|t| {
-            if cancel.load(Ordering::Relaxed) {
-                return (t, None);
-            }
-            let v: Vec<T> = t.pixels().map(|(x, y)| f(x, y)).collect();
-            let d = done.fetch_add(v.len(), Ordering::Relaxed) + v.len();
-            progress(RenderProgress { done: d, total });
-            (t, Some(v))
-        })
-        .collect()
 }
 
 /// Which samples a pass adds to each pixel.
@@ -432,78 +284,4 @@ pub fn trace_pixel<R: RayRecorder>(
     let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
     Pass { integrator: &integrator, camera, still: None, pass }.sample_pixel(x, y, k, rec).0
-}
-
-/// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Aov {
-    /// Distance along the (unit-length) camera ray; NaN where it hits nothing.
-    Depth,
-    /// World-space hit point; NaN where nothing is hit.
-    Position,
-    /// Shading normal (facing the camera); zero where nothing is hit.
-    Normal,
-    /// Diffuse colour (`kd` or texture); zero where nothing is hit.
-    Albedo,
-    /// Global primitive id (exact up to 2^24); -1 where nothing is hit.
-    PrimId,
-    /// BVH nodes visited by the camera ray: the traversal heat map.
-    NodesVisited,
-}
-
-impl Aov {
-    /// Channels per pixel.
-    pub fn channels(self) -> u32 {
-        match self {
-            Aov::Depth | Aov::PrimId | Aov::NodesVisited => 1,
-            Aov::Position | Aov::Normal | Aov::Albedo => 3,
-        }
-    }
-}
-
-/// Render one AOV of the first hits of `camera`'s rays through the pixel centres.
-pub fn render_aov(
-    scene: &Scene,
-    settings: &RenderSettings,
-    camera: &Camera,
-    aov: Aov,
-    progress: &(dyn Fn(RenderProgress) + Sync),
-) -> FloatImage {
-    let rays = RayGenerator::new(camera, settings.width, settings.height);
-    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x, y| {
-        let ray = rays.ray(x, y, Vec2::splat(0.5));
-        let mut stats = TraversalStats::default();
-        let hit = scene.intersect_counted(&ray, &mut stats);
-        let nan = [f32::NAN; 3];
-        let v: [f32; 3] = match (aov, hit) {
-            (Aov::NodesVisited, _) => [stats.nodes_visited as f32, 0.0, 0.0],
-            (Aov::Depth, None) => nan,
-            (Aov::Depth, Some(h)) => [h.t, 0.0, 0.0],
-            (Aov::PrimId, None) => [-1.0, 0.0, 0.0],
-            (Aov::PrimId, Some(h)) => [scene.prim_id(&h) as f32, 0.0, 0.0],
-            (Aov::Position, None) => nan,
-            (Aov::Normal | Aov::Albedo, None) => [0.0; 3],
-            (_, Some(h)) => {
-                let si = scene.surface(&ray, &h, settings);
-                match aov {
-                    Aov::Position => si.point.to_array(),
-                    Aov::Normal => si.shading_normal.to_array(),
-                    _ => si.kd.to_array(),
-                }
-            }
-        };
-        v
-    });
-    let channels = aov.channels() as usize;
-    let mut data = vec![0.0; settings.width as usize * settings.height as usize * channels];
-    for (t, values) in tiles {
-        for ((x, y), v) in t.pixels().zip(values.into_iter().flatten()) {
-            let i = (y as usize * settings.width as usize + x as usize) * channels;
-            data[i..i + channels].copy_from_slice(&v[..channels]);
-        }
-    }
-    let channels = channels as u32;
-    FloatImage { width: settings.width, height: settings.height, channels, data }
 }

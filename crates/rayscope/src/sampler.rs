@@ -190,7 +190,8 @@ pub fn grid_dims(n: u32) -> (u32, u32) {
     (a, n.max(1) / a)
 }
 
-/// Sample `i` of `n` stratified over `[0,1)^2`: a jittered cell of the [`grid_dims`] grid.
+/// Sample `i` of `n` stratified over `[0,1]^2`: a jittered cell of the [`grid_dims`] grid (see
+/// [`Strata2::sample`] for why the square is closed).
 #[inline]
 pub fn stratum_2d(i: u32, n: u32, jitter: Vec2) -> Vec2 {
     Strata2::new(n).sample(i, jitter)
@@ -211,7 +212,10 @@ impl Strata2 {
         Strata2 { a, b, inv: Vec2::new(1.0 / a as f32, 1.0 / b as f32) }
     }
 
-    /// Sample `i`: cell `i` of the grid, jittered by `jitter` in `[0,1)^2`.
+    /// Sample `i`: cell `i` of the grid, jittered by `jitter` in `[0,1)^2`. The result is in
+    /// `[0,1]^2`, not `[0,1)^2`: in the last row or column, the largest jitter a sampler draws
+    /// (`1 - 2^-24`) rounds the cell's far edge up to exactly 1 (every user of these numbers
+    /// takes 1: light points are defined over `[0,1]^2`, the pixel filters at their edge).
     #[inline]
     pub fn sample(&self, i: u32, jitter: Vec2) -> Vec2 {
         let (x, y) = (i % self.a, (i / self.a) % self.b);
@@ -219,7 +223,8 @@ impl Strata2 {
     }
 }
 
-/// Sample `i` of `n` stratified over `[0,1)`.
+/// Sample `i` of `n` stratified over `[0,1]` (the last stratum's largest jitter rounds up to
+/// exactly 1, as in [`Strata2::sample`]).
 #[inline]
 pub fn stratum_1d(i: u32, n: u32, jitter: f32) -> f32 {
     (i as f32 + jitter) / n.max(1) as f32
@@ -228,7 +233,8 @@ pub fn stratum_1d(i: u32, n: u32, jitter: f32) -> f32 {
 /// The random numbers of one pixel sample.
 #[derive(Clone, Debug)]
 pub struct PixelSampler {
-    /// Position within the pixel, in `[0,1)^2`.
+    /// Position within the pixel, in `[0,1]^2` (1 only on a jittered grid's last row or
+    /// column, as in [`Strata2::sample`]; `[0,1)^2` otherwise).
     pub pixel_offset: Vec2,
     /// Shutter time, in `[0, 1)`.
     pub time: f32,

@@ -7,14 +7,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use common::inline_scene;
 use rayscope::camera::CameraDesc;
-use rayscope::filter::PixelFilter;
 use rayscope::light::Light;
 use rayscope::material::MaterialDesc;
 use rayscope::math::{Color, Vec2, Vec3, Vec3A};
 use rayscope::progressive::{ImagingMode, Progressive};
-use rayscope::render::{RenderSettings, render};
+use rayscope::render::render;
 use rayscope::sampler::stratum_1d;
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, SphereDesc, desc::MotionDesc};
+use rayscope::settings::{PixelFilter, RenderSettings};
 
 fn quad(corners: [Vec3; 4], material: MaterialDesc) -> MeshDesc {
     let mut m = inline_scene(corners.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).meshes.remove(0);

@@ -9,8 +9,9 @@ use common::{assets, builtin_scene};
 use rayscope::math::Color;
 use rayscope::math::Vec3A;
 use rayscope::record::NoRecorder;
-use rayscope::render::{RenderSettings, render, trace_pixel};
+use rayscope::render::{render, trace_pixel};
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
+use rayscope::settings::RenderSettings;
 
 fn render_with_threads(scene: &Scene, s: &RenderSettings, threads: usize) -> Vec<[f32; 3]> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();

@@ -3,13 +3,15 @@
 mod common;
 
 use common::{Rng, inline_scene};
+use rayscope::aov::{Aov, render_aov};
 use rayscope::camera::CameraDesc;
 use rayscope::light::Light;
 use rayscope::material::MaterialDesc;
 use rayscope::math::{Color, Vec3, Vec3A};
 use rayscope::ray::Ray;
-use rayscope::render::{Aov, RenderSettings, render, render_aov};
+use rayscope::render::render;
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc};
+use rayscope::settings::RenderSettings;
 
 /// A 5x5 image whose centre pixel's ray goes exactly through the origin along +z.
 fn settings() -> RenderSettings {
@@ -227,7 +229,7 @@ fn spawned_rays_never_rehit_their_surface() {
             let aim = (rng.vec3(-0.9, 0.9) + Vec3A::new(0.3, -0.2, 0.1)) * scale;
             let ray = Ray::new(origin, (aim - origin).normalize());
             let Some(hit) = scene.intersect(&ray) else { continue };
-            let si = scene.surface(&ray, &hit, &s);
+            let si = scene.surface(&ray, &hit, &s.shading_options());
             tested += 1;
             for _ in 0..4 {
                 let d = rng.dir();

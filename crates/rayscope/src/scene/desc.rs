@@ -39,7 +39,7 @@ use crate::io::texture::load_texture;
 use crate::light::Light;
 use crate::material::{Material, MaterialDesc, Texture};
 use crate::math::{Vec2, Vec3, Vec3A, quat_from_euler_degrees};
-use crate::render::RenderSettings;
+use crate::settings::RenderSettings;
 
 /// A whole scene as written in a scene file (and as the built-ins are defined).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

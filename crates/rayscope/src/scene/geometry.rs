@@ -1,7 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, Motion, PrimRef, SceneSphere};
-use crate::bvh::{Occluders, PACKET, BuildParams, Bvh, Primitives, TraversalObserver, WideTree};
+use crate::bvh::{BuildParams, Bvh, Occluders, PACKET, Primitives, TraversalObserver, WideTree};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;

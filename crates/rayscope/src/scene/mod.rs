@@ -1,24 +1,31 @@
 //! Scenes: what a scene file or built-in describes ([`desc`]), the course's built-in scenes
-//! ([`builtin`]), and the loaded [`Scene`] with its BVH, ready to trace.
+//! ([`builtin`]), and the loaded [`Scene`] with its BVH, ready to trace: here its hits and
+//! the shading information at them; its shapes in BVH order and the BVH in `geometry.rs`
+//! ([`Geometry`]); and in `visibility.rs` the one way shadow rays are asked
+//! ([`Scene::light_visibility`], [`LightVisibility`]).
 
 pub mod builtin;
 pub mod desc;
 mod geometry;
+mod visibility;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape, SlotInfo};
+pub use visibility::LightVisibility;
 
-use crate::bvh::{Occluders, BvhStats, NoObserver, NodeLog, TraversalObserver};
+// What a scene is made of, under the names a user of the scene meets them by.
+pub use crate::light::{Light, LightSample};
+pub use crate::material::{Material, MaterialDesc, Texture};
+pub use crate::ray::Ray;
+
+use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::{Error, Result};
-use crate::light::Light;
-use crate::material::{Material, Texture};
 use crate::math::{Color, Vec2, Vec3A, face_forward};
-use crate::ray::Ray;
-use crate::render::RenderSettings;
+use crate::settings::{RenderSettings, ShadingOptions};
 
 /// A triangle mesh with per-vertex attributes and a material per triangle.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -268,34 +275,6 @@ impl Scene {
         log.0
     }
 
-    /// Whether anything lies on `ray` within its interval.
-    #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.geometry.occluded(ray)
-    }
-
-    /// What shadow rays from `apex` to points of `light` may cross, so that many samples of
-    /// the light share one BVH query ([`crate::bvh::shadow`]). The rays must go to
-    /// the side of `side` (a surface's geometric normal), as shadow rays that are cast do.
-    /// `None` where each ray must be traced alone: scenes with transparent surfaces (whose
-    /// shadows need every surface crossed), an apex inside the light's bounds, or a cluttered
-    /// view of it.
-    pub fn shadow_group(&self, apex: Vec3A, side: Vec3A, light: &Light) -> Option<Occluders> {
-        if self.has_transparency {
-            return None;
-        }
-        let (center, radius) = light.bounding_sphere();
-        self.geometry.occluders(apex, side, center, radius)
-    }
-
-    /// What [`Scene::transmittance`] gives for a shadow ray of the group `occ` was collected
-    /// for (no transparency, so all or nothing).
-    #[inline]
-    pub fn transmittance_among(&self, ray: &Ray, occ: &Occluders) -> Color {
-        if self.geometry.occluded_among(ray, occ) { Color::ZERO } else { Color::ONE }
-    }
-
-    /// The material of primitive `prim`.
     /// The global primitive id of a hit (triangles of all meshes in order, then spheres).
     #[inline]
     pub fn prim_id(&self, hit: &Hit) -> u32 {
@@ -321,7 +300,7 @@ impl Scene {
     }
 
     /// Shading information at `hit` on `ray`.
-    pub fn surface(&self, ray: &Ray, hit: &Hit, settings: &RenderSettings) -> SurfaceInteraction {
+    pub fn surface(&self, ray: &Ray, hit: &Hit, options: &ShadingOptions) -> SurfaceInteraction {
         let point = ray.at(hit.t);
         // Read in slot order (neighbouring rays, neighbouring slots); the mesh's own arrays
         // only for what the slot does not hold.
@@ -339,7 +318,7 @@ impl Scene {
                     }
                 };
                 let w = Vec3A::new(1.0 - hit.u - hit.v, hit.u, hit.v);
-                let smooth = settings.interpolate_normals && !m.normals.is_empty();
+                let smooth = options.interpolate_normals && !m.normals.is_empty();
                 let (shading, uv) = if smooth || !m.uvs.is_empty() {
                     let [a, b, c] = corners();
                     let shading = if smooth {
@@ -372,41 +351,10 @@ impl Scene {
         let geo_normal = face_forward(geo, -ray.dir);
         let shading_normal = face_forward(shading, geo_normal);
         let mat = &self.materials[material as usize];
-        let kd = match (mat.texture, settings.textures) {
-            (Some(t), true) => self.textures[t].sample(uv, settings.texture_filter),
+        let kd = match (mat.texture, options.textures) {
+            (Some(t), true) => self.textures[t].sample(uv, options.texture_filter),
             _ => mat.kd,
         };
         SurfaceInteraction { point, geo_normal, shading_normal, uv, material, kd }
-    }
-
-    /// Fraction of light that passes from a surface point along `ray` (a shadow ray): zero
-    /// when an opaque surface blocks it; through transparent surfaces, the product of
-    /// `kd * (1 - d)` of each surface crossed (coloured shadows, as in the course).
-    pub fn transmittance(&self, ray: &Ray, settings: &RenderSettings) -> Color {
-        if !self.has_transparency {
-            return if self.occluded(ray) { Color::ZERO } else { Color::ONE };
-        }
-        let mut t = Color::ONE;
-        let mut r = *ray;
-        // Each surface crossed moves the ray past it; the bound guards against a loop on
-        // pathological input (coincident transparent surfaces).
-        for _ in 0..64 {
-            let Some(hit) = self.intersect(&r) else {
-                return t;
-            };
-            let mat = &self.materials[self.geometry.slots[hit.slot as usize].material as usize];
-            if mat.transparency >= 1.0 {
-                return Color::ZERO;
-            }
-            let si = self.surface(&r, &hit, settings);
-            t *= si.kd * (1.0 - mat.transparency);
-            if t.max_element() <= 0.0 {
-                return Color::ZERO;
-            }
-            let next = Ray::spawn(si.point, si.geo_normal, r.dir, r.time);
-            let travelled = (next.origin - r.origin).dot(r.dir);
-            r = Ray { t: crate::ray::Interval { min: 0.0, max: r.t.max - travelled }, ..next };
-        }
-        Color::ZERO
     }
 }

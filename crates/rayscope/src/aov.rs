@@ -1,0 +1,146 @@
+//! Arbitrary output variables: per-pixel facts about the first hit of each camera ray (depth,
+//! position, normal, albedo, primitive id, BVH nodes visited), rendered in parallel tiles
+//! beside the colour image.
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::bvh::TraversalStats;
+use crate::camera::{Camera, RayGenerator};
+use crate::film::FloatImage;
+use crate::math::Vec2;
+use crate::render::RenderProgress;
+use crate::scene::Scene;
+use crate::settings::RenderSettings;
+
+/// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Aov {
+    /// Distance along the (unit-length) camera ray; NaN where it hits nothing.
+    Depth,
+    /// World-space hit point; NaN where nothing is hit.
+    Position,
+    /// Shading normal (facing the camera); zero where nothing is hit.
+    Normal,
+    /// Diffuse colour (`kd` or texture); zero where nothing is hit.
+    Albedo,
+    /// Global primitive id (exact up to 2^24); -1 where nothing is hit.
+    PrimId,
+    /// BVH nodes visited by the camera ray: the traversal heat map.
+    NodesVisited,
+}
+
+impl Aov {
+    /// Channels per pixel.
+    pub fn channels(self) -> u32 {
+        match self {
+            Aov::Depth | Aov::PrimId | Aov::NodesVisited => 1,
+            Aov::Position | Aov::Normal | Aov::Albedo => 3,
+        }
+    }
+}
+
+/// Render one AOV of the first hits of `camera`'s rays through the pixel centres.
+pub fn render_aov(
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: &Camera,
+    aov: Aov,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> FloatImage {
+    let rays = RayGenerator::new(camera, settings.width, settings.height);
+    let shading = settings.shading_options();
+    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x, y| {
+        let ray = rays.ray(x, y, Vec2::splat(0.5));
+        let mut stats = TraversalStats::default();
+        let hit = scene.intersect_counted(&ray, &mut stats);
+        let nan = [f32::NAN; 3];
+        let v: [f32; 3] = match (aov, hit) {
+            (Aov::NodesVisited, _) => [stats.nodes_visited as f32, 0.0, 0.0],
+            (Aov::Depth, None) => nan,
+            (Aov::Depth, Some(h)) => [h.t, 0.0, 0.0],
+            (Aov::PrimId, None) => [-1.0, 0.0, 0.0],
+            (Aov::PrimId, Some(h)) => [scene.prim_id(&h) as f32, 0.0, 0.0],
+            (Aov::Position, None) => nan,
+            (Aov::Normal | Aov::Albedo, None) => [0.0; 3],
+            (_, Some(h)) => {
+                let si = scene.surface(&ray, &h, &shading);
+                match aov {
+                    Aov::Position => si.point.to_array(),
+                    Aov::Normal => si.shading_normal.to_array(),
+                    _ => si.kd.to_array(),
+                }
+            }
+        };
+        v
+    });
+    let channels = aov.channels() as usize;
+    let mut data = vec![0.0; settings.width as usize * settings.height as usize * channels];
+    for (t, values) in tiles {
+        for ((x, y), v) in t.pixels().zip(values.into_iter().flatten()) {
+            let i = (y as usize * settings.width as usize + x as usize) * channels;
+            data[i..i + channels].copy_from_slice(&v[..channels]);
+        }
+    }
+    let channels = channels as u32;
+    FloatImage { width: settings.width, height: settings.height, channels, data }
+}
+
+/// Side of the square tiles the image is cut into: small enough to balance load across
+/// threads, large enough that the rays of a tile stay coherent in cache.
+const TILE: u32 = 16;
+
+#[derive(Clone, Copy)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl Tile {
+    fn pixels(self) -> impl Iterator<Item = (u32, u32)> {
+        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y)))
+    }
+}
+
+fn tiles(width: u32, height: u32) -> Vec<Tile> {
+    let mut v = Vec::new();
+    for y0 in (0..height).step_by(TILE as usize) {
+        for x0 in (0..width).step_by(TILE as usize) {
+            v.push(Tile { x0, y0, x1: (x0 + TILE).min(width), y1: (y0 + TILE).min(height) });
+        }
+    }
+    v
+}
+
+/// Run `f` for every pixel in parallel tiles, skipping tiles not yet started once `cancel` is
+/// set. Returns, per tile, its pixels' results (`None` for skipped tiles). Each result depends
+/// only on its pixel, so the outcome is the same for any number of threads.
+fn per_tile<T: Send>(
+    width: u32,
+    height: u32,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+    f: impl Fn(u32, u32) -> T + Sync,
+) -> Vec<(Tile, Option<Vec<T>>)> {
+    let tiles = tiles(width, height);
+    let done = AtomicUsize::new(0);
+    let total = width as usize * height as usize;
+    tiles
+        .into_par_iter()
+        .map(|t| {
+            if cancel.load(Ordering::Relaxed) {
+                return (t, None);
+            }
+            let v: Vec<T> = t.pixels().map(|(x, y)| f(x, y)).collect();
+            let d = done.fetch_add(v.len(), Ordering::Relaxed) + v.len();
+            progress(RenderProgress { done: d, total });
+            (t, Some(v))
+        })
+        .collect()
+}

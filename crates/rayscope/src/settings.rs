@@ -1,0 +1,160 @@
+//! Every switch of the renderer, in one leaf that the scene, the integrator, the renderer and
+//! the user interfaces all read: [`RenderSettings`], their limits and their validation, and the
+//! small option types they are made of. It imports nothing of the renderer, so no module below
+//! the renderer has to import the renderer to learn how to shade.
+
+use serde::{Deserialize, Serialize};
+
+// The colour type of the settings (and of the film), under the name a user meets it by.
+pub use crate::math::Color;
+
+/// Every switch of the renderer. Scene files may set any of them in a `[render]` table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Phong shading; off shows each surface's diffuse colour unlit.
+    pub shading: bool,
+    /// Shadow rays towards each light.
+    pub shadows: bool,
+    /// Recursive mirror reflection for materials with `ks > 0`.
+    pub reflections: bool,
+    /// Transparency (MTL `d < 1`) for camera rays and shadows.
+    pub transparency: bool,
+    /// Deepest recursion: rays at this depth cast no reflection or transmission ray.
+    pub max_depth: u32,
+    /// Interpolate vertex normals across triangles (barycentric); off uses face normals.
+    pub interpolate_normals: bool,
+    /// Use diffuse textures (`map_Kd`) in place of `kd`.
+    pub textures: bool,
+    /// How textures are filtered.
+    pub texture_filter: TextureFilter,
+    /// Colour of rays that hit nothing.
+    pub background: Color,
+    /// Samples (camera rays) per pixel: anti-aliasing, and motion blur over the shutter.
+    pub spp: u32,
+    /// Shadow rays per area light ("rays per light"); 0 shades each light from its centre.
+    pub light_samples: u32,
+    /// Rays sampling each glossy reflection; 0 reflects as a perfect mirror.
+    pub gloss_samples: u32,
+    /// Pixel reconstruction filter.
+    pub filter: PixelFilter,
+    /// Seed of every random number; the same seed gives the same image.
+    pub seed: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 800,
+            height: 800,
+            shading: true,
+            shadows: true,
+            reflections: true,
+            transparency: true,
+            max_depth: 5,
+            interpolate_normals: false,
+            textures: true,
+            texture_filter: TextureFilter::Bilinear,
+            background: Color::ZERO,
+            spp: 1,
+            light_samples: 0,
+            gloss_samples: 0,
+            filter: PixelFilter::Box,
+            seed: 0,
+        }
+    }
+}
+
+/// Largest accepted image side, in pixels (a 16k x 16k float film is already 3 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// Largest accepted count of samples, shadow rays per light or glossy rays.
+pub const MAX_SAMPLES: u32 = 1 << 16;
+
+impl RenderSettings {
+    /// Check that the values make sense (a clear message, not a panic or a huge allocation).
+    pub fn validate(&self) -> Result<(), crate::Error> {
+        let bad = |m: String| Err(crate::Error::Invalid(m));
+        if self.width == 0 || self.height == 0 || self.width > MAX_IMAGE_SIDE || self.height > MAX_IMAGE_SIDE {
+            return bad(format!(
+                "image size {}x{} is out of range: each side must be 1 to {MAX_IMAGE_SIDE}",
+                self.width, self.height
+            ));
+        }
+        if !self.background.is_finite() {
+            return bad("background colour must be finite".into());
+        }
+        if self.max_depth > 64 {
+            return bad(format!("max depth {} is out of range (0 to 64)", self.max_depth));
+        }
+        if self.spp == 0 || self.spp > MAX_SAMPLES {
+            return bad(format!("samples per pixel {} is out of range (1 to {MAX_SAMPLES})", self.spp));
+        }
+        for (what, n) in [("light samples", self.light_samples), ("gloss samples", self.gloss_samples)] {
+            if n > MAX_SAMPLES {
+                return bad(format!("{what} {n} is out of range (0 to {MAX_SAMPLES})"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The options the scene's surface queries read ([`ShadingOptions`]).
+    #[inline]
+    pub fn shading_options(&self) -> ShadingOptions {
+        ShadingOptions {
+            interpolate_normals: self.interpolate_normals,
+            textures: self.textures,
+            texture_filter: self.texture_filter,
+        }
+    }
+}
+
+/// The settings that decide what a surface looks like at a hit point: all that the scene's
+/// shading queries (`Scene::surface`, `Scene::transmittance`) read, so that they need not see
+/// the rest of [`RenderSettings`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShadingOptions {
+    /// Interpolate vertex normals across triangles ([`RenderSettings::interpolate_normals`]).
+    pub interpolate_normals: bool,
+    /// Use diffuse textures ([`RenderSettings::textures`]).
+    pub textures: bool,
+    /// How textures are filtered ([`RenderSettings::texture_filter`]).
+    pub texture_filter: TextureFilter,
+}
+
+impl Default for ShadingOptions {
+    /// The options of the default settings.
+    fn default() -> Self {
+        RenderSettings::default().shading_options()
+    }
+}
+
+/// A pixel filter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum PixelFilter {
+    /// Uniform over the pixel (radius 0.5).
+    #[default]
+    Box,
+    /// Triangle (tent) of radius 1 pixel.
+    Tent,
+    /// Gaussian of standard deviation 0.5 pixel, truncated at 1.5 pixels.
+    Gaussian,
+}
+
+/// How textures are looked up.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum TextureFilter {
+    /// The texel under the point.
+    Nearest,
+    /// Bilinear blend of the four nearest texels.
+    #[default]
+    Bilinear,
+}
