@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
+use super::file::read_text;
 use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::math::{Vec2, Vec3};
@@ -49,13 +50,14 @@ pub struct ObjFile {
     pub raw_positions: Vec<Vec3>,
 }
 
-/// Load an OBJ file and the MTL files it names.
+/// Load an OBJ file and the MTL files it names (regular files, within
+/// [`super::file::max_file_bytes`]).
 pub fn load_obj(path: &Path) -> Result<ObjFile> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     parse_obj(&text, path, |mtl| {
         let p = dir.join(mtl);
-        std::fs::read_to_string(&p).map(|t| (p.clone(), t)).map_err(|e| Error::io(&p, e))
+        read_text(&p).map(|t| (p, t))
     })
 }
 

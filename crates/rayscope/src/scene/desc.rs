@@ -298,7 +298,8 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
         (None, Some(a), None) => {
             let dir = ctx.assets.clone().or_else(default_assets);
             let p = dir.as_ref().map_or_else(|| a.clone(), |d| d.join(a));
-            if !p.is_file() {
+            // Anything at the path is read (and refused there if it is no regular file).
+            if !p.exists() {
                 let searched = searched_folder(ctx.assets.is_some(), dir.as_deref());
                 return Err(Error::MissingAsset { scene: scene.to_string(), path: p, searched });
             }
