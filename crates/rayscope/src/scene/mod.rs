@@ -167,6 +167,9 @@ pub struct Scene {
     pub build_time: Duration,
     /// Whether any material is not fully opaque (shadow rays must then look through).
     pub has_transparency: bool,
+    /// What the loaders accepted but ignored (e.g. texture coordinate indices in an OBJ file
+    /// without texture coordinates), one message each, naming the file and line.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -228,6 +231,7 @@ impl Scene {
             geometry,
             build_time,
             has_transparency,
+            warnings: Vec::new(),
         }
     }
 
