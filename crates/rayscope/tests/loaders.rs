@@ -120,11 +120,21 @@ fn files_that_are_no_mesh_are_errors_naming_the_line() {
     let passwd = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1::/usr/sbin:/usr/sbin/nologin\n";
     let toml = "# a scene\nname = \"x\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";
     let zeros = "\0".repeat(4096);
+    let latin1 = "v 0 0 0\n# caf\u{e9}\n";
     let dir = folder(&[("passwd.obj", passwd), ("scene.obj", toml), ("zeros.obj", &zeros)]);
-    for (name, line) in [("passwd.obj", 1), ("scene.obj", 2), ("zeros.obj", 1)] {
+    let mut bytes = latin1.as_bytes().to_vec();
+    // "é" in Latin-1.
+    bytes.splice(bytes.len() - 3..bytes.len() - 1, [0xe9]);
+    std::fs::write(dir.path().join("latin1.obj"), bytes).unwrap();
+    for (name, line, why) in [
+        ("passwd.obj", 1, "not an OBJ statement"),
+        ("scene.obj", 2, "not an OBJ statement"),
+        ("zeros.obj", 1, "not a text file"),
+        ("latin1.obj", 2, "not a text file"),
+    ] {
         let (path, at, message) = parse_error(load(&dir.path().join(name)));
         assert_eq!((path, at), (dir.path().join(name), Some(line)), "{message}");
-        assert!(message.contains("not an OBJ statement"), "{message}");
+        assert!(message.contains(why), "{message}");
     }
 }
 

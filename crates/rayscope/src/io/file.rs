@@ -68,12 +68,19 @@ pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// The text of the regular file at `path` (see [`read_bytes`]); bytes that are not UTF-8 are
-/// an error at their line.
+/// The text of the regular file at `path` (see [`read_bytes`]). Bytes that are not UTF-8, and
+/// NUL bytes (which no text file holds, and all of a sparse file or `/dev/zero` are), are an
+/// error at their line, found before any parser scans the file's lines.
 pub fn read_text(path: &Path) -> Result<String> {
-    String::from_utf8(read_bytes(path)?).map_err(|e| {
-        let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = good.iter().filter(|&&b| b == b'\n').count() + 1;
+    let bytes = read_bytes(path)?;
+    let line_of = |bytes: &[u8]| bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+    // `contains` on bytes is a vectorised search: no cost worth measuring on a mesh.
+    if bytes.contains(&0) {
+        let nul = bytes.iter().position(|&b| b == 0).unwrap_or(0);
+        return Err(Error::parse(path, Some(line_of(&bytes[..nul])), "not a text file (a NUL byte)"));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let line = line_of(&e.as_bytes()[..e.utf8_error().valid_up_to()]);
         Error::parse(path, Some(line), "not a text file (bytes that are not UTF-8)")
     })
 }
