@@ -305,6 +305,9 @@ fn cmd_scenes(export: Option<String>) -> Result<()> {
 /// Load the scene and merge settings: defaults, then the scene's `[render]`, then flags.
 fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     let scene = Scene::load(&args.scene, args.assets.as_deref())?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
     let mut s = scene.render.clone().unwrap_or_default();
     let f = &args.settings;
     s.width = f.width.unwrap_or(s.width);

@@ -26,6 +26,25 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A path names something other than a regular file (a directory, a FIFO, a device).
+    #[error("{path}: is {kind}, not a regular file; rayscope reads only regular files")]
+    NotAFile {
+        /// The path.
+        path: PathBuf,
+        /// What it names instead ("a directory", "a FIFO", "a device", ...).
+        kind: &'static str,
+    },
+    /// A file is larger than the loaders read ([`crate::scene::max_file_bytes`]).
+    #[error(
+        "{path}: larger than the limit of {limit} bytes; set RAYSCOPE_MAX_FILE_BYTES to a larger number of \
+         bytes to read it"
+    )]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The limit in force.
+        limit: u64,
+    },
     /// A scene needs a course file that is not in the asset folder.
     #[error(
         "{path}: not found; scene '{scene}' needs the course's scene files. {searched}. Point --assets DIR \

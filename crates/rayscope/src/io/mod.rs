@@ -1,4 +1,8 @@
-//! Reading course files: OBJ/MTL meshes ([`obj`]) and texture images ([`texture`]).
+//! Reading course files: OBJ meshes ([`obj`]), their MTL material libraries ([`mtl`]) and
+//! texture images ([`texture`]), each through [`file`], which reads only regular files and no
+//! more than a set number of bytes.
 
+pub mod file;
+pub mod mtl;
 pub mod obj;
 pub mod texture;

@@ -1,15 +1,18 @@
 //! Wavefront OBJ/MTL loading through `tobj`, with line-accurate validation.
 //!
 //! `tobj` does the parsing and triangulation; before it runs, a light scan of the text checks
-//! every number and index so that a malformed file is reported with its line, never passed on
-//! as NaN geometry or a panic.
+//! every number, index and statement so that a malformed file (or one that is no OBJ at all)
+//! is reported with its line, never passed on as NaN geometry, an empty mesh or a panic, and
+//! splits the `mtllib` lines into the names that [`super::mtl`] reads.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
+use super::file::read_text;
+use super::mtl::{ObjMaterial, parse_mtl};
 use crate::error::{Error, Result};
-use crate::material::Material;
 use crate::math::{Vec2, Vec3};
 
 /// One group of faces sharing a material, with unified per-corner vertex attributes.
@@ -29,15 +32,6 @@ pub struct ObjMesh {
     pub material: Option<usize>,
 }
 
-/// A material read from an MTL file, with the texture it names (not yet loaded).
-#[derive(Clone, Debug, PartialEq)]
-pub struct ObjMaterial {
-    /// The Phong parameters (its `texture` is unset).
-    pub material: Material,
-    /// `map_Kd`, resolved against the OBJ file's folder (where its MTL files are).
-    pub texture: Option<PathBuf>,
-}
-
 /// The contents of an OBJ file.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ObjFile {
@@ -47,45 +41,76 @@ pub struct ObjFile {
     pub materials: Vec<ObjMaterial>,
     /// The file's vertex positions as listed (`v` lines of each group), for normalisation.
     pub raw_positions: Vec<Vec3>,
+    /// What was accepted but ignored, one message each, naming the file and line.
+    pub warnings: Vec<String>,
 }
 
-/// Load an OBJ file and the MTL files it names.
+/// Load an OBJ file and the MTL files it names (regular files, within
+/// [`super::file::max_file_bytes`]).
 pub fn load_obj(path: &Path) -> Result<ObjFile> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_text(path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     parse_obj(&text, path, |mtl| {
         let p = dir.join(mtl);
-        std::fs::read_to_string(&p).map(|t| (p.clone(), t)).map_err(|e| Error::io(&p, e))
+        read_text(&p).map(|t| (p, t))
     })
 }
 
 /// Parse OBJ text. `path` names it in errors; `read_mtl` returns the path and text of an MTL
-/// file named by `mtllib`.
+/// file named by `mtllib`. A file without faces is an error: it is not a mesh.
 pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(PathBuf, String)>) -> Result<ObjFile> {
-    scan_obj(text, path)?;
-    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    let mtl_error = std::cell::RefCell::new(None);
-    let (models, materials) = tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &opts, |mtl_path| {
-        let name = mtl_path.to_string_lossy();
-        match read_mtl(&name).and_then(|(p, t)| parse_mtl(&t, &p).map(|()| (p, t))) {
-            Ok((p, t)) => tobj::load_mtl_buf(&mut BufReader::new(t.as_bytes())).inspect_err(|e| {
-                *mtl_error.borrow_mut() = Some(Error::parse(&p, None, e.to_string()));
-            }),
-            Err(e) => {
-                *mtl_error.borrow_mut() = Some(e);
-                Err(tobj::LoadError::OpenFileFailed)
+    let scan = scan_obj(text, path)?;
+    // `tobj` reads the faces and calls back for each `mtllib` line, in file order; the
+    // libraries are read here, by the names the scan split (tobj takes the whole rest of the
+    // line for one name). Our materials are numbered globally and tobj's list stays empty,
+    // so the indices it gives groups are ours.
+    let libraries = RefCell::new(scan.libraries.into_iter());
+    let materials = RefCell::new(Vec::<ObjMaterial>::new());
+    let mtl_error = RefCell::new(None);
+    let load_library = |_: &Path| -> tobj::MTLLoadResult {
+        let names = libraries.borrow_mut().next().unwrap_or_default();
+        let mut materials = materials.borrow_mut();
+        let mut by_name = Vec::new();
+        for name in names {
+            match read_mtl(&name).and_then(|(p, t)| parse_mtl(&t, &p)) {
+                Ok(read) => {
+                    for m in read {
+                        by_name.push((m.material.name.clone(), materials.len()));
+                        materials.push(m);
+                    }
+                }
+                Err(e) => {
+                    mtl_error.borrow_mut().get_or_insert(e);
+                    return Err(tobj::LoadError::OpenFileFailed);
+                }
             }
         }
-    })
-    .map_err(|e| Error::parse(path, None, e.to_string()))?;
-    let materials = match (materials, mtl_error.into_inner()) {
-        (_, Some(e)) => return Err(e),
-        (Ok(m), None) => m,
-        (Err(e), None) => return Err(Error::parse(path, None, e.to_string())),
+        Ok((Vec::new(), by_name.into_iter().collect()))
     };
-    let mut out = ObjFile::default();
-    let dir = path.parent().unwrap_or(Path::new(""));
-    out.materials = materials.iter().map(|m| convert_material(m, dir)).collect();
+    // tobj reads an `l` line of three or more vertices as a face: they are blanked (lines
+    // kept, for tobj's count of them) in a copy, made only for files that have them.
+    let without_polylines;
+    let text = if scan.polylines {
+        fn blank(l: &str) -> &str {
+            if l.split_whitespace().next() == Some("l") { "" } else { l }
+        }
+        without_polylines = text.lines().map(blank).collect::<Vec<_>>().join("\n");
+        &without_polylines
+    } else {
+        text
+    };
+    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    // The scan admits only what tobj reads without error or panic; should a panic remain,
+    // it is an error in this file, not the end of the program.
+    let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &opts, load_library)
+    }))
+    .map_err(|_| Error::parse(path, None, "the OBJ reader failed on this file"))?;
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    let (models, _) = loaded.map_err(|e| Error::parse(path, None, e.to_string()))?;
+    let mut out = ObjFile { materials: materials.into_inner(), warnings: scan.warnings, ..ObjFile::default() };
     for model in models {
         let mesh = &model.mesh;
         if mesh.indices.is_empty() {
@@ -105,6 +130,9 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
             None => None,
         };
         out.meshes.push(unify(&model.name, mesh, positions, material));
+    }
+    if out.meshes.is_empty() {
+        return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
     }
     Ok(out)
 }
@@ -154,22 +182,7 @@ pub fn smooth_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     n.iter().map(|v| v.normalize_or_zero()).collect()
 }
 
-fn convert_material(m: &tobj::Material, dir: &Path) -> ObjMaterial {
-    let d = Material::default();
-    let material = Material {
-        name: m.name.clone(),
-        kd: m.diffuse.map(Vec3::from).unwrap_or(d.kd),
-        ks: m.specular.map(Vec3::from).unwrap_or(d.ks),
-        shininess: m.shininess.unwrap_or(d.shininess),
-        transparency: m.dissolve.unwrap_or(1.0).clamp(0.0, 1.0),
-        texture: None,
-        glossiness: None,
-    };
-    // Textures are named relative to the MTL file, which `mtllib` names relative to the OBJ.
-    let texture = m.diffuse_texture.as_deref().map(str::trim).filter(|t| !t.is_empty()).map(|t| dir.join(t));
-    ObjMaterial { material, texture }
-}
-
+/// The numbers of a line, between `min` and `max` of them, all finite.
 fn parse_floats(path: &Path, line_no: usize, words: &[&str], min: usize, max: usize) -> Result<()> {
     if words.len() < min || words.len() > max {
         return Err(Error::parse(
@@ -187,78 +200,177 @@ fn parse_floats(path: &Path, line_no: usize, words: &[&str], min: usize, max: us
     Ok(())
 }
 
-/// Check every `v`, `vt`, `vn` and `f` line: numbers parse and are finite, face indices refer
-/// to elements defined before them (OBJ's rule), and faces have at least three corners.
-fn scan_obj(text: &str, path: &Path) -> Result<()> {
+/// What the scan of an OBJ file found besides errors.
+struct ObjScan {
+    /// The MTL file names of each `mtllib` line, in file order.
+    libraries: Vec<Vec<String>>,
+    /// Accepted but ignored, naming the file and line.
+    warnings: Vec<String>,
+    /// Whether there are `l` (polyline) lines, which tobj would read as faces.
+    polylines: bool,
+}
+
+/// The statements of the OBJ format; a line starting with anything else is not OBJ.
+const STATEMENTS: &[&str] = &[
+    "v",
+    "vt",
+    "vn",
+    "vp",
+    "f",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "mtllib",
+    "usemtl",
+    "usemap",
+    "maplib",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "call",
+    "csh",
+];
+
+/// Check every line before `tobj` reads the file, so that what it would reject, or read as
+/// NaN geometry, is an error at its line: numbers parse and are finite, face indices refer to
+/// elements defined before them (OBJ's rule), faces have at least three corners, and every
+/// statement is OBJ's. Faces that give texture coordinate (or normal) indices in a file
+/// without any `vt` (`vn`) lines are accepted with a warning, as other readers do.
+fn scan_obj(text: &str, path: &Path) -> Result<ObjScan> {
+    let mut scan = ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false };
     let mut counts = [0i64; 3]; // v, vt, vn
+    // The first line whose face refers to texture coordinates or normals when none exist.
+    let mut missing: [Option<usize>; 3] = [None; 3];
+    let mut colored = false;
     for (i, line) in text.lines().enumerate() {
         let n = i + 1;
+        let err = |message: String| Error::parse(path, Some(n), message);
         let mut words = line.split_whitespace();
         let Some(head) = words.next() else { continue };
+        if head.starts_with('#') {
+            continue;
+        }
         let rest: Vec<&str> = words.collect();
         match head {
             "v" => {
-                parse_floats(path, n, &rest, 3, 7)?;
+                // x y z, then nothing, a weight w, or a colour r g b (tobj's reading).
+                if ![3, 4, 6].contains(&rest.len()) {
+                    return Err(err(format!("expected 3, 4 or 6 numbers, found {}", rest.len())));
+                }
+                parse_floats(path, n, &rest, 3, 6)?;
+                if let [x, y, z, w] = rest[..] {
+                    // tobj divides by the weight.
+                    let [x, y, z, w] = [x, y, z, w].map(|s| s.parse::<f32>().unwrap_or(f32::NAN));
+                    if !(x / w).is_finite() || !(y / w).is_finite() || !(z / w).is_finite() {
+                        return Err(err(format!("the weight {w} makes the vertex infinite")));
+                    }
+                }
+                // tobj pairs colours with vertices by position in its list.
+                if counts[0] > 0 && colored != (rest.len() == 6) {
+                    return Err(err("vertex colours are given for some vertices only".into()));
+                }
+                colored = rest.len() == 6;
                 counts[0] += 1;
             }
             "vt" => {
-                parse_floats(path, n, &rest, 1, 3)?;
+                parse_floats(path, n, &rest, 2, 3)?;
                 counts[1] += 1;
             }
             "vn" => {
                 parse_floats(path, n, &rest, 3, 3)?;
                 counts[2] += 1;
             }
-            "f" => {
-                if rest.len() < 3 {
-                    return Err(Error::parse(
-                        path,
-                        Some(n),
-                        format!("a face needs at least 3 vertices, found {}", rest.len()),
-                    ));
+            "f" | "l" => {
+                let face = head == "f";
+                scan.polylines |= !face;
+                if face && rest.len() < 3 {
+                    return Err(err(format!("a face needs at least 3 vertices, found {}", rest.len())));
                 }
                 for corner in &rest {
-                    for (k, part) in corner.split('/').enumerate().take(3) {
+                    let invalid = || err(format!("'{corner}' is not a valid face vertex"));
+                    for (k, part) in corner.split('/').enumerate() {
+                        if k > 2 {
+                            return Err(invalid());
+                        }
                         if part.is_empty() && k > 0 {
                             continue;
                         }
-                        let idx: i64 = part.parse().map_err(|_| {
-                            Error::parse(path, Some(n), format!("'{corner}' is not a valid face vertex"))
-                        })?;
-                        let count = counts[[0, 1, 2][k]];
+                        let idx: i64 = part.parse().map_err(|_| invalid())?;
+                        // Polylines are not drawn (nor given to tobj); only their syntax matters.
+                        if !face {
+                            continue;
+                        }
+                        let count = counts[k];
+                        if count == 0 && k > 0 {
+                            missing[k].get_or_insert(n);
+                            continue;
+                        }
                         let ok = if idx > 0 { idx <= count } else { idx < 0 && -idx <= count };
                         if !ok {
                             let what = ["vertex", "texture coordinate", "normal"][k];
-                            return Err(Error::parse(
-                                path,
-                                Some(n),
-                                format!("{what} index {idx} is out of range ({count} defined so far)"),
-                            ));
+                            return Err(err(format!("{what} index {idx} is out of range ({count} defined so far)")));
                         }
                     }
                 }
             }
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
-/// Check the numeric fields of an MTL file (`Kd`, `Ks`, `Ka`, `Ke`, `Ns`, `d`, `Tr`, `Ni`).
-pub fn parse_mtl(text: &str, path: &Path) -> Result<()> {
-    for (i, line) in text.lines().enumerate() {
-        let words: Vec<&str> = line.split_whitespace().collect();
-        match words.first().copied() {
-            Some("Kd" | "Ks" | "Ka" | "Ke" | "Tf") => parse_floats(path, i + 1, &words[1..], 1, 3)?,
-            Some("Ns" | "d" | "Ni") => parse_floats(path, i + 1, &words[1..], 1, 1)?,
-            Some("Tr") => parse_floats(path, i + 1, &words[1..], 1, 2)?,
-            Some("map_Kd") if words.len() < 2 => {
-                return Err(Error::parse(path, Some(i + 1), "map_Kd names no file"));
+            "mtllib" => {
+                if rest.is_empty() {
+                    return Err(err("mtllib names no file".into()));
+                }
+                // The format's `mtllib a.mtl b.mtl`: several libraries, all read.
+                scan.libraries.push(rest.iter().map(|s| s.to_string()).collect());
             }
-            _ => {}
+            // tobj takes the name after the first space.
+            "usemtl" if line.split_once(' ').is_none_or(|(_, name)| name.trim().is_empty()) => {
+                return Err(err("usemtl names no material".into()));
+            }
+            _ if STATEMENTS.contains(&head) => {}
+            _ => {
+                let shown: String = line.chars().take(60).collect();
+                return Err(err(format!("not an OBJ statement: '{}' (is this a mesh file?)", shown.escape_debug())));
+            }
         }
     }
-    Ok(())
+    for (k, what, element) in [(1, "texture coordinate", "vt"), (2, "normal", "vn")] {
+        match missing[k] {
+            // Elements defined after the faces that refer to them break OBJ's rule.
+            Some(line) if counts[k] > 0 => {
+                return Err(Error::parse(
+                    path,
+                    Some(line),
+                    format!("{what} index refers to no `{element}` line before it"),
+                ));
+            }
+            Some(line) => scan.warnings.push(format!(
+                "{}:{line}: faces give {what} indices but the file has no `{element}` lines; they are ignored",
+                path.display()
+            )),
+            None => {}
+        }
+    }
+    Ok(scan)
 }
 
 #[cfg(test)]
@@ -313,7 +425,7 @@ mod tests {
         assert_eq!(line, Some(4));
         assert!(msg.contains("out of range"), "{msg}");
         assert_eq!(err_line("v 0 0 0\nv 1 0 0\nf 1 2\n").0, Some(3));
-        assert_eq!(err_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n").0, Some(4));
+        assert_eq!(err_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\nvt 0 0\n").0, Some(4));
         assert_eq!(err_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n").0, Some(4));
     }
 

@@ -2,13 +2,14 @@
 
 use std::path::Path;
 
+use super::file::read_bytes;
 use crate::error::{Error, Result};
 use crate::material::Texture;
 use crate::math::Color;
 
 /// Load an image file as a texture; 8-bit values map to `[0, 1]` linearly, as in the course.
 pub fn load_texture(path: &Path) -> Result<Texture> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = read_bytes(path)?;
     let img = image::load_from_memory(&bytes)
         .map_err(|e| Error::parse(path, None, format!("cannot decode image: {e}")))?
         .to_rgb8();

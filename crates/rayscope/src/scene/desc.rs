@@ -290,6 +290,8 @@ struct Loaded {
     meshes: Vec<(Mesh, Option<usize>)>,
     raw_positions: Vec<Vec3>,
     materials: Vec<(Material, Option<PathBuf>)>,
+    /// What the file's reader accepted but ignored.
+    warnings: Vec<String>,
 }
 
 fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut TextureCache) -> Result<Loaded> {
@@ -298,7 +300,8 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
         (None, Some(a), None) => {
             let dir = ctx.assets.clone().or_else(default_assets);
             let p = dir.as_ref().map_or_else(|| a.clone(), |d| d.join(a));
-            if !p.is_file() {
+            // Anything at the path is read (and refused there if it is no regular file).
+            if !p.exists() {
                 let searched = searched_folder(ctx.assets.is_some(), dir.as_deref());
                 return Err(Error::MissingAsset { scene: scene.to_string(), path: p, searched });
             }
@@ -312,7 +315,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
         }
     };
     if let Some(path) = file {
-        let ObjFile { meshes, materials, raw_positions } = load_obj(&path)?;
+        let ObjFile { meshes, materials, raw_positions, warnings } = load_obj(&path)?;
         let meshes = meshes
             .into_iter()
             .map(|m| {
@@ -329,7 +332,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
             })
             .collect();
         let materials = materials.into_iter().map(|m| (m.material, m.texture)).collect();
-        return Ok(Loaded { meshes, raw_positions, materials });
+        return Ok(Loaded { meshes, raw_positions, materials, warnings });
     }
     let vertices = d.vertices.clone().unwrap_or_default();
     let faces = d.faces.clone().unwrap_or_default();
@@ -376,7 +379,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
     };
     // Inline meshes carry per-face material indices already; mark them with `None` so the
     // caller maps them through the local material table.
-    Ok(Loaded { meshes: vec![(mesh, None)], raw_positions: vertices, materials })
+    Ok(Loaded { meshes: vec![(mesh, None)], raw_positions: vertices, materials, warnings: Vec::new() })
 }
 
 /// Turn a description into a scene: load files, normalise and place meshes, resolve
@@ -386,9 +389,11 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     let mut textures = TextureCache::default();
     let mut materials: Vec<Material> = vec![Material::default()];
     let mut meshes = Vec::new();
+    let mut warnings = Vec::new();
     for d in &desc.meshes {
         let inline = d.vertices.is_some();
-        let loaded = load_mesh_source(d, ctx, &name, &mut textures)?;
+        let mut loaded = load_mesh_source(d, ctx, &name, &mut textures)?;
+        warnings.append(&mut loaded.warnings);
         let base = materials.len() as u32;
         for (mut m, tex) in loaded.materials {
             if let Some(t) = tex {
@@ -456,6 +461,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         desc.render.clone(),
     );
     scene.camera_end = desc.camera_end.clone();
+    scene.warnings = warnings;
     Ok(scene)
 }
 

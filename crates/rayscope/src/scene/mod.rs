@@ -16,6 +16,9 @@ pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 pub use geometry::{Geometry, Shape, SlotInfo};
 pub use visibility::LightVisibility;
 
+// The loaders' limit on the size of a file, under the scene whose files it bounds.
+pub use crate::io::file::{DEFAULT_MAX_FILE_BYTES, MAX_FILE_BYTES_VAR, max_file_bytes, set_max_file_bytes};
+
 // What a scene is made of, under the names a user of the scene meets them by.
 pub use crate::light::{Light, LightSample};
 pub use crate::material::{Material, MaterialDesc, Texture};
@@ -23,7 +26,8 @@ pub use crate::ray::Ray;
 
 use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::io::file::read_text;
 use crate::math::{Color, Vec2, Vec3A, face_forward};
 use crate::settings::{RenderSettings, ShadingOptions};
 
@@ -163,6 +167,9 @@ pub struct Scene {
     pub build_time: Duration,
     /// Whether any material is not fully opaque (shadow rays must then look through).
     pub has_transparency: bool,
+    /// What the loaders accepted but ignored (e.g. texture coordinate indices in an OBJ file
+    /// without texture coordinates), one message each, naming the file and line.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -173,7 +180,7 @@ impl Scene {
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         let (desc, base) = match ext.as_deref() {
             Some("toml") => {
-                let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+                let text = read_text(path)?;
                 (SceneDesc::from_toml(&text, path)?, path.parent().map(Path::to_path_buf))
             }
             Some("obj") => (SceneDesc::for_obj(path), None),
@@ -224,6 +231,7 @@ impl Scene {
             geometry,
             build_time,
             has_transparency,
+            warnings: Vec::new(),
         }
     }
 
