@@ -50,7 +50,11 @@ fn limit(set: u64, var: Option<String>) -> Result<u64> {
 
 /// The bytes of the regular file at `path`, at most [`max_file_bytes`] of them.
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
-    let limit = max_file_bytes()?;
+    read_bytes_within(path, max_file_bytes()?)
+}
+
+/// The bytes of the regular file at `path`, at most `limit` of them.
+fn read_bytes_within(path: &Path, limit: u64) -> Result<Vec<u8>> {
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     check_regular(path, &meta)?;
     if meta.len() > limit {
@@ -133,11 +137,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("f");
         std::fs::write(&path, "0123456789").unwrap();
-        set_max_file_bytes(Some(9));
-        let over = read_bytes(&path);
-        set_max_file_bytes(Some(10));
-        let at = read_bytes(&path);
-        set_max_file_bytes(None);
+        // Through the limit's argument, not the process-wide setting: tests run in parallel,
+        // and another one reading a file meanwhile would meet a 9-byte limit.
+        let over = read_bytes_within(&path, 9);
+        let at = read_bytes_within(&path, 10);
         assert!(matches!(over, Err(Error::TooLarge { limit: 9, .. })), "{over:?}");
         assert_eq!(at.unwrap().len(), 10);
     }
