@@ -60,8 +60,8 @@ struct BenchArgs {
     /// the RAYSCOPE_ASSETS environment variable, else ../shared/scenes when it exists.
     #[arg(long, value_name = "DIR")]
     assets: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N")]
+    /// Worker threads (default: all cores; at most 256 or 4 per core, whichever is more).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     threads: Option<usize>,
     /// Renders per row; the fastest counts.
     #[arg(long, default_value_t = 10, value_name = "N")]
@@ -125,8 +125,8 @@ struct SceneArgs {
     /// else ../shared/scenes when it exists (relative to the working directory).
     #[arg(long, value_name = "DIR")]
     assets: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N")]
+    /// Worker threads (default: all cores; at most 256 or 4 per core, whichever is more).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     threads: Option<usize>,
     #[command(flatten)]
     settings: SettingsArgs,
@@ -334,11 +334,26 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     Ok((scene, s))
 }
 
-fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    if threads == Some(0) {
-        bail!("--threads must be at least 1");
+/// The most `--threads` accepted: more threads than cores only take turns on them, and each
+/// reserves a stack, so thousands exhaust the process's threads or memory (5000 failed with
+/// "Resource temporarily unavailable", 100000 hung) for no gain.
+fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    cores.saturating_mul(4).max(256)
+}
+
+fn parse_threads(s: &str) -> Result<usize, String> {
+    let n: usize = s.trim().parse().map_err(|_| format!("'{s}' is not a number of threads"))?;
+    let max = max_threads();
+    if !(1..=max).contains(&n) {
+        return Err(format!("{n} is out of range: give 1 to {max} (256, or 4 per core where that is more)"));
     }
-    Ok(rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?)
+    Ok(n)
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let n = threads.unwrap_or(0);
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().context("starting the worker threads (--threads)")
 }
 
 fn cmd_render(args: RenderArgs) -> Result<ExitCode> {

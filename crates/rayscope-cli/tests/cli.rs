@@ -124,6 +124,10 @@ fn bad_input_gives_clear_errors() {
     fails_with(d, &["render", "-o", "o.png", "--width", "100000"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.jpg"], &["unknown image format"]);
     fails_with(d, &["render", "-o", "o.png", "--threads", "0"], &["--threads"]);
+    // Thousands of threads exhausted the process (5000) or hung (100000).
+    fails_with(d, &["render", "-o", "o.png", "--threads", "5000"], &["--threads", "out of range"]);
+    fails_with(d, &["render", "-o", "o.png", "--threads", "100000"], &["--threads", "out of range"]);
+    fails_with(d, &["bench", "--threads", "100000"], &["--threads", "out of range"]);
     fails_with(d, &["render", "-o", "o.png", "--max-depth", "x"], &["invalid value"]);
     fails_with(d, &["debug", "--pixel", "900,1"], &["outside"]);
     // Nothing was written by any failing command.
