@@ -455,6 +455,12 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
             samples_note(&film)
         ))
     );
+    if film.dropped() > 0 {
+        eprintln!(
+            "warning: {} not finite (NaN or infinite) and added as black; the scene has degenerate values",
+            counted(film.dropped(), "sample was", "samples were")
+        );
+    }
     if cancel.load(Ordering::Relaxed) {
         eprintln!(
             "interrupted: the image holds what was rendered ({}); exit status {EXIT_INTERRUPTED}",
