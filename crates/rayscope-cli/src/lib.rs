@@ -273,10 +273,26 @@ pub fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// An error and its causes, `: `-separated, each said once: the library's errors already show
+/// the error they wrap (`out.png: Permission denied`), which printing the chain repeated.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if !text.ends_with(&c) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&c);
+        }
+    }
+    text
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
@@ -443,8 +459,7 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
         (out.film, out.rays, fastest)
     };
     bar.finish_and_clear();
-    write_image(&film.to_image(), &args.output, encoding)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    write_image(&film.to_image(), &args.output, encoding)?;
     let mrays = rays.total() as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
     eprintln!(
         "{}",
