@@ -202,6 +202,9 @@ fn parse_camera_end(s: &str) -> Result<CameraEnd, String> {
     if !(3..=4).contains(&v.len()) || v.iter().any(|x| !x.is_finite()) {
         return Err("expected RX,RY,RZ or RX,RY,RZ,DIST (finite numbers)".into());
     }
+    if v.get(3).is_some_and(|&d| d <= 0.0) {
+        return Err("the distance DIST must be positive".into());
+    }
     Ok(CameraEnd { rotation: Vec3::new(v[0], v[1], v[2]), distance: v.get(3).copied() })
 }
 

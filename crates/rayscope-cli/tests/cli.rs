@@ -256,6 +256,7 @@ fn sampling_flags_are_checked() {
     fails_with(d, &["render", "-o", "o.png", "--light-samples", "9999999"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.png", "--target-spp", "4"], &["--progressive"]);
     fails_with(d, &["render", "-o", "o.png", "--camera-end", "1,2"], &["RX,RY,RZ"]);
+    fails_with(d, &["render", "-o", "o.png", "--camera-end", "1,2,3,0"], &["--camera-end", "positive"]);
     fails_with(d, &["render", "-o", "o.png", "--progressive", "--time-limit=-1"], &["--time-limit"]);
     fails_with(d, &["render", "-o", "o.png", "--progressive", "--target-spp", "0"], &["--target-spp"]);
     let o = rayscope(
