@@ -1,6 +1,7 @@
 //! `rayscope bench`: the course report's performance table, measured on this machine.
 
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
@@ -261,10 +262,6 @@ pub fn csv(r: &Report) -> String {
 }
 
 /// Write `text` to `path` atomically.
-pub fn write_text(path: &PathBuf, text: &str) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).with_context(|| format!("{}", dir.display()))?;
-    std::io::Write::write_all(&mut tmp, text.as_bytes())?;
-    tmp.persist(path).with_context(|| format!("{}", path.display()))?;
-    Ok(())
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    Ok(rayscope::output::write_file(path, |w| w.write_all(text.as_bytes()))?)
 }

@@ -60,8 +60,8 @@ struct BenchArgs {
     /// the RAYSCOPE_ASSETS environment variable, else ../shared/scenes when it exists.
     #[arg(long, value_name = "DIR")]
     assets: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N")]
+    /// Worker threads (default: all cores; at most 256 or 4 per core, whichever is more).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     threads: Option<usize>,
     /// Renders per row; the fastest counts.
     #[arg(long, default_value_t = 10, value_name = "N")]
@@ -125,8 +125,8 @@ struct SceneArgs {
     /// else ../shared/scenes when it exists (relative to the working directory).
     #[arg(long, value_name = "DIR")]
     assets: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N")]
+    /// Worker threads (default: all cores; at most 256 or 4 per core, whichever is more).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
     threads: Option<usize>,
     #[command(flatten)]
     settings: SettingsArgs,
@@ -202,6 +202,9 @@ fn parse_camera_end(s: &str) -> Result<CameraEnd, String> {
     if !(3..=4).contains(&v.len()) || v.iter().any(|x| !x.is_finite()) {
         return Err("expected RX,RY,RZ or RX,RY,RZ,DIST (finite numbers)".into());
     }
+    if v.get(3).is_some_and(|&d| d <= 0.0) {
+        return Err("the distance DIST must be positive".into());
+    }
     Ok(CameraEnd { rotation: Vec3::new(v[0], v[1], v[2]), distance: v.get(3).copied() })
 }
 
@@ -273,10 +276,26 @@ pub fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// An error and its causes, `: `-separated, each said once: the library's errors already show
+/// the error they wrap (`out.png: Permission denied`), which printing the chain repeated.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if !text.ends_with(&c) {
+            if !text.is_empty() {
+                text.push_str(": ");
+            }
+            text.push_str(&c);
+        }
+    }
+    text
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
@@ -337,11 +356,26 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     Ok((scene, s))
 }
 
-fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    if threads == Some(0) {
-        bail!("--threads must be at least 1");
+/// The most `--threads` accepted: more threads than cores only take turns on them, and each
+/// reserves a stack, so thousands exhaust the process's threads or memory (5000 failed with
+/// "Resource temporarily unavailable", 100000 hung) for no gain.
+fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    cores.saturating_mul(4).max(256)
+}
+
+fn parse_threads(s: &str) -> Result<usize, String> {
+    let n: usize = s.trim().parse().map_err(|_| format!("'{s}' is not a number of threads"))?;
+    let max = max_threads();
+    if !(1..=max).contains(&n) {
+        return Err(format!("{n} is out of range: give 1 to {max} (256, or 4 per core where that is more)"));
     }
-    Ok(rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?)
+    Ok(n)
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let n = threads.unwrap_or(0);
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().context("starting the worker threads (--threads)")
 }
 
 fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
@@ -431,8 +465,7 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
         (out.film, out.rays, fastest)
     };
     bar.finish_and_clear();
-    write_image(&film.to_image(), &args.output, encoding)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    write_image(&film.to_image(), &args.output, encoding)?;
     let mrays = rays.total() as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
     eprintln!(
         "{}",
@@ -443,6 +476,12 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
             samples_note(&film)
         ))
     );
+    if film.dropped() > 0 {
+        eprintln!(
+            "warning: {} not finite (NaN or infinite) and added as black; the scene has degenerate values",
+            counted(film.dropped(), "sample was", "samples were")
+        );
+    }
     if cancel.load(Ordering::Relaxed) {
         eprintln!(
             "interrupted: the image holds what was rendered ({}); exit status {EXIT_INTERRUPTED}",

@@ -124,6 +124,10 @@ fn bad_input_gives_clear_errors() {
     fails_with(d, &["render", "-o", "o.png", "--width", "100000"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.jpg"], &["unknown image format"]);
     fails_with(d, &["render", "-o", "o.png", "--threads", "0"], &["--threads"]);
+    // Thousands of threads exhausted the process (5000) or hung (100000).
+    fails_with(d, &["render", "-o", "o.png", "--threads", "5000"], &["--threads", "out of range"]);
+    fails_with(d, &["render", "-o", "o.png", "--threads", "100000"], &["--threads", "out of range"]);
+    fails_with(d, &["bench", "--threads", "100000"], &["--threads", "out of range"]);
     fails_with(d, &["render", "-o", "o.png", "--max-depth", "x"], &["invalid value"]);
     fails_with(d, &["debug", "--pixel", "900,1"], &["outside"]);
     // Nothing was written by any failing command.
@@ -252,6 +256,7 @@ fn sampling_flags_are_checked() {
     fails_with(d, &["render", "-o", "o.png", "--light-samples", "9999999"], &["out of range"]);
     fails_with(d, &["render", "-o", "o.png", "--target-spp", "4"], &["--progressive"]);
     fails_with(d, &["render", "-o", "o.png", "--camera-end", "1,2"], &["RX,RY,RZ"]);
+    fails_with(d, &["render", "-o", "o.png", "--camera-end", "1,2,3,0"], &["--camera-end", "positive"]);
     fails_with(d, &["render", "-o", "o.png", "--progressive", "--time-limit=-1"], &["--time-limit"]);
     fails_with(d, &["render", "-o", "o.png", "--progressive", "--target-spp", "0"], &["--target-spp"]);
     let o = rayscope(
@@ -432,4 +437,62 @@ fn bench_quick_has_every_row() {
     }
     let csv = std::fs::read_to_string(dir.path().join("b.csv")).unwrap();
     assert_eq!(csv.lines().count(), 12);
+}
+
+#[test]
+fn output_errors_name_the_output_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = rayscope(dir.path(), &["render", "-o", "no/dir/x.png", "--width", "8", "--height", "8"]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("no/dir/x.png: No such file or directory"), "{err}");
+    assert_eq!(err.matches("os error").count(), 1, "the system's message once: {err}");
+    assert!(!err.contains(".partial"), "{err}");
+}
+
+/// As an unprivileged user in a world-writable folder (like `/tmp`), `-o` must not replace
+/// another user's read-only file, which renaming over it would. Runs where the tests run as
+/// root and `setpriv` can drop to `nobody`; skipped (with a notice) elsewhere.
+#[cfg(unix)]
+#[test]
+fn a_file_the_user_may_not_write_is_not_replaced() {
+    use std::os::unix::fs::PermissionsExt;
+    let root = std::process::Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout == b"0\n");
+    let setpriv = std::process::Command::new("setpriv").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !(root && setpriv) {
+        eprintln!("skipped: needs root and setpriv to act as an unprivileged user");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // World-writable, without /tmp's sticky bit (which forbids renaming over others' files).
+    std::fs::set_permissions(d, std::fs::Permissions::from_mode(0o777)).unwrap();
+    let p = d.join("f.png");
+    std::fs::write(&p, b"root's").unwrap();
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let as_nobody = || {
+        Command::new("setpriv")
+            .args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"])
+            .arg(env!("CARGO_BIN_EXE_rayscope"))
+            .args(["render", "-o", "f.png", "--width", "8", "--height", "8"])
+            .current_dir(d)
+            .env_remove("RAYSCOPE_ASSETS")
+            .output()
+            .unwrap()
+    };
+    let o = as_nobody();
+    let err = stderr(&o);
+    if err.contains("Permission denied") && !err.contains("f.png") {
+        eprintln!("skipped: nobody cannot run the test binary here: {err}");
+        return;
+    }
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("f.png") && err.contains("not writable"), "{err}");
+    assert_eq!(std::fs::read(&p).unwrap(), b"root's");
+    // A file the user may write is replaced as before, keeping its mode.
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o666)).unwrap();
+    let o = as_nobody();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(image::open(&p).is_ok());
+    assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o666);
 }

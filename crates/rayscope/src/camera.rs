@@ -6,9 +6,11 @@ use serde::{Deserialize, Serialize};
 use crate::math::{Mat3, Quat, Vec2, Vec3, Vec3A, quat_from_euler_degrees};
 use crate::ray::Ray;
 
-/// How a scene describes its camera.
+/// How a scene describes its camera. Every field has a default, `kind` too (a trackball), so
+/// it is read through [`CameraFields`] rather than as a tagged enum: serde's tagged enums
+/// require the tag and report it missing before any other mistake in the table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", try_from = "CameraFields")]
 pub enum CameraDesc {
     /// The course's trackball: orbit `distance` around `look_at`, rotated by Euler angles.
     Trackball {
@@ -38,6 +40,68 @@ pub enum CameraDesc {
         #[serde(default = "default_fov")]
         fov: f32,
     },
+}
+
+/// The two kinds of camera, as a scene file names them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+enum CameraKind {
+    Trackball,
+    LookAt,
+}
+
+/// A camera table as written: any of the fields of either kind. Read as a plain struct, a
+/// wrong type is reported at its key and an unknown key by name.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFields {
+    kind: Option<CameraKind>,
+    look_at: Option<Vec3>,
+    distance: Option<f32>,
+    rotation: Option<Vec3>,
+    fov: Option<f32>,
+    eye: Option<Vec3>,
+    target: Option<Vec3>,
+    up: Option<Vec3>,
+}
+
+impl TryFrom<CameraFields> for CameraDesc {
+    type Error = String;
+
+    fn try_from(f: CameraFields) -> Result<CameraDesc, String> {
+        let fov = f.fov.unwrap_or_else(default_fov);
+        let kind = f.kind.unwrap_or(CameraKind::Trackball);
+        // The other kind's fields, by name: the message a tagged enum gave.
+        let foreign = match kind {
+            CameraKind::Trackball => [("eye", f.eye.is_some()), ("target", f.target.is_some()), ("up", f.up.is_some())],
+            CameraKind::LookAt => [
+                ("look_at", f.look_at.is_some()),
+                ("distance", f.distance.is_some()),
+                ("rotation", f.rotation.is_some()),
+            ],
+        };
+        if let Some((key, _)) = foreign.iter().find(|(_, given)| *given) {
+            let (this, expected) = match kind {
+                CameraKind::Trackball => ("trackball", "`kind`, `look_at`, `distance`, `rotation` or `fov`"),
+                CameraKind::LookAt => ("look-at", "`kind`, `eye`, `target`, `up` or `fov`"),
+            };
+            return Err(format!("unknown field `{key}` for a {this} camera, expected {expected}"));
+        }
+        Ok(match kind {
+            CameraKind::Trackball => CameraDesc::Trackball {
+                look_at: f.look_at.unwrap_or_default(),
+                distance: f.distance.unwrap_or_else(default_distance),
+                rotation: f.rotation.unwrap_or_else(default_rotation),
+                fov,
+            },
+            CameraKind::LookAt => CameraDesc::LookAt {
+                eye: f.eye.ok_or("missing field `eye`")?,
+                target: f.target.ok_or("missing field `target`")?,
+                up: f.up.unwrap_or_else(default_up),
+                fov,
+            },
+        })
+    }
 }
 
 fn default_distance() -> f32 {

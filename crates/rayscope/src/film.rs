@@ -5,19 +5,24 @@ use crate::math::Color;
 /// A linear-RGB accumulation film: per pixel, the sum of its samples and their count. The
 /// pixel's value is their mean. Samples are added one at a time in sample order, so the same
 /// samples give bit-identical sums however the work was split into frames or threads.
+///
+/// No NaN or infinity enters a film: a sample that is not finite (a degenerate input can
+/// make one, and it would blank its pixel, or with a filter its neighbours, for good) adds
+/// black instead, and is counted in [`Film::dropped`] so that it is reported, not hidden.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     width: u32,
     height: u32,
     sum: Vec<Color>,
     count: Vec<u32>,
+    dropped: u64,
 }
 
 impl Film {
     /// A film with no samples.
     pub fn new(width: u32, height: u32) -> Film {
         let n = width as usize * height as usize;
-        Film { width, height, sum: vec![Color::ZERO; n], count: vec![0; n] }
+        Film { width, height, sum: vec![Color::ZERO; n], count: vec![0; n], dropped: 0 }
     }
 
     /// Width in pixels.
@@ -63,10 +68,22 @@ impl Film {
         (&mut self.sum, &mut self.count)
     }
 
+    /// Samples that were not finite and were added as black (see [`Film`]).
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Count `n` more samples that were not finite and were added as black: whoever adds
+    /// samples through [`Film::raw_mut`] adds them with [`finite_or_black`] and counts here.
+    pub fn add_dropped(&mut self, n: u64) {
+        self.dropped += n;
+    }
+
     /// Forget every sample.
     pub fn clear(&mut self) {
         self.sum.fill(Color::ZERO);
         self.count.fill(0);
+        self.dropped = 0;
     }
 
     /// Every pixel's value, rows from the top.
@@ -87,6 +104,17 @@ impl Film {
             channels: 3,
             data: self.pixels().iter().flat_map(|c| c.to_array()).collect(),
         }
+    }
+}
+
+/// `c` if it is finite, else black and `dropped` counts it: what a sample may add to a film.
+#[inline(always)]
+pub fn finite_or_black(c: Color, dropped: &mut u64) -> Color {
+    if c.is_finite() {
+        c
+    } else {
+        *dropped += 1;
+        Color::ZERO
     }
 }
 

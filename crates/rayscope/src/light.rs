@@ -257,21 +257,6 @@ impl Light {
             Light::Sphere { center, radius, .. } => (center.into(), radius),
         }
     }
-
-    /// Whether every number in the light is finite and its radius (if any) non-negative.
-    pub fn is_valid(&self) -> bool {
-        let v = |x: &Vec3| x.is_finite();
-        match self {
-            Light::Point { position, color } => v(position) && v(color),
-            Light::Segment { endpoint0, endpoint1, color0, color1 } => {
-                [endpoint0, endpoint1, color0, color1].into_iter().all(v)
-            }
-            Light::Parallelogram { v0, edge01, edge02, color0, color1, color2, color3 } => {
-                [v0, edge01, edge02, color0, color1, color2, color3].into_iter().all(v)
-            }
-            Light::Sphere { center, radius, color } => v(center) && v(color) && radius.is_finite() && *radius >= 0.0,
-        }
-    }
 }
 
 #[cfg(test)]

@@ -103,8 +103,10 @@ impl Texture {
                 let (x0, y0) = (fx.floor(), fy.floor());
                 let (tx, ty) = (fx - x0, fy - y0);
                 let (x0, y0) = (x0 as i64, y0 as i64);
-                let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), tx);
-                let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), tx);
+                // Wrapping: a huge coordinate saturates to i64::MAX, whose neighbour overflowed.
+                let (x1, y1) = (x0.wrapping_add(1), y0.wrapping_add(1));
+                let top = self.texel(x0, y0).lerp(self.texel(x1, y0), tx);
+                let bottom = self.texel(x0, y1).lerp(self.texel(x1, y1), tx);
                 top.lerp(bottom, ty)
             }
         }

@@ -1,9 +1,11 @@
 //! Image writers (PNG, OpenEXR, PFM), all atomic: the image goes to a temporary file beside
 //! the target, which is renamed over it only when complete, so an existing file is replaced
-//! only by a whole new one and a failed write leaves nothing behind.
+//! only by a whole new one and a failed write leaves nothing behind ([`write_file`], which
+//! the command line's other outputs use too).
 
+use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::film::FloatImage;
@@ -46,37 +48,104 @@ impl Format {
     }
 }
 
-/// Write `img` to `path` in the format its extension names, atomically.
+/// Write `img` to `path` in the format its extension names, atomically (see [`write_file`]).
 pub fn write_image(img: &FloatImage, path: &Path, encoding: Encoding) -> Result<()> {
     let format = Format::from_path(path)?;
-    let dir = match path.parent() {
+    write_file(path, |w| match format {
+        Format::Png => write_png(img, w, encoding),
+        Format::Pfm => write_pfm(img, w),
+        Format::Exr => write_exr(img, w),
+    })
+}
+
+/// Write a file atomically: `write` fills a temporary file beside the target, which is renamed
+/// over it only when complete. A symbolic link is written through: the file it names is
+/// replaced (beside itself), the link stays. An existing file keeps its permissions, and one
+/// the user may not write is refused rather than replaced (renaming only needs the folder to
+/// be writable, which would let anyone replace another user's read-only file in a shared
+/// folder such as `/tmp`).
+pub fn write_file(path: &Path, write: impl FnOnce(&mut BufWriter<&File>) -> std::io::Result<()>) -> Result<()> {
+    let target = link_target(path).map_err(|e| Error::io(path, e))?;
+    let existing = match std::fs::metadata(&target) {
+        Ok(m) => Some(m),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(Error::io(path, e)),
+    };
+    if let Some(m) = &existing {
+        check_replaceable(&target, m).map_err(|e| Error::io(path, e))?;
+    }
+    let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let tmp = tempfile::Builder::new()
-        .prefix(".rayscope-")
-        .suffix(".partial")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(dir, e))?;
-    // Temporary files are private (0600); the image is an ordinary file.
+    // Errors name the output path the user gave, not the hidden temporary file, and carry
+    // the operating system's message once.
+    let fail = |e: std::io::Error| Error::io(path, os_error(e));
+    let tmp = tempfile::Builder::new().prefix(".rayscope-").suffix(".partial").tempfile_in(dir).map_err(fail)?;
+    // Temporary files are private (0600); the file is an ordinary one, or keeps the mode of
+    // the file it replaces.
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(|e| Error::io(path, e))?;
+        let mode = existing.as_ref().map_or(0o644, |m| m.permissions().mode() & 0o7777);
+        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(mode)).map_err(fail)?;
     }
     {
         let mut w = BufWriter::new(tmp.as_file());
-        let result = match format {
-            Format::Png => write_png(img, &mut w, encoding),
-            Format::Pfm => write_pfm(img, &mut w),
-            Format::Exr => write_exr(img, &mut w),
-        };
-        result.map_err(|e| Error::io(path, e))?;
-        w.flush().map_err(|e| Error::io(path, e))?;
+        write(&mut w).map_err(fail)?;
+        w.flush().map_err(fail)?;
     }
-    tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    tmp.as_file().sync_all().map_err(fail)?;
+    tmp.persist(&target).map_err(|e| fail(e.error))?;
     Ok(())
+}
+
+/// The file `path` names after following symbolic links (a dangling link's target, which the
+/// write creates), so that the image replaces the target and the link stays a link.
+fn link_target(path: &Path) -> std::io::Result<PathBuf> {
+    let mut p = path.to_path_buf();
+    // Linux's limit on links followed in one lookup; more is a loop.
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let to = std::fs::read_link(&p)?;
+                p = match p.parent() {
+                    Some(dir) => dir.join(to),
+                    None => to,
+                };
+            }
+            _ => return Ok(p),
+        }
+    }
+    Err(std::io::Error::other("too many levels of symbolic links"))
+}
+
+/// Whether the existing file `target` may be replaced: it must be a regular file that the
+/// user could write in place. Opening it for writing (without truncating, so nothing changes)
+/// asks the system itself, which knows owners, groups, ACLs, read-only mounts and root.
+fn check_replaceable(target: &Path, meta: &std::fs::Metadata) -> std::io::Result<()> {
+    if !meta.is_file() {
+        return Err(std::io::Error::other("exists and is not a regular file; not replaced"));
+    }
+    std::fs::OpenOptions::new().write(true).open(target).map(drop).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::PermissionDenied {
+            std::io::Error::new(e.kind(), "exists and is not writable by you; not replaced")
+        } else {
+            os_error(e)
+        }
+    })
+}
+
+/// `e` without the note that `tempfile` appends to its errors (` at path ".rayscope-….partial"`),
+/// which names its hidden temporary file rather than the output.
+fn os_error(e: std::io::Error) -> std::io::Error {
+    if e.raw_os_error().is_some() {
+        return e;
+    }
+    match e.to_string().split_once(" at path ") {
+        Some((message, _)) => std::io::Error::new(e.kind(), message.to_string()),
+        None => e,
+    }
 }
 
 fn to_u8(v: f32, encoding: Encoding) -> u8 {

@@ -167,7 +167,7 @@ impl Progressive {
     }
 
     /// Render frames until the render is done ([`Progressive::is_done`]), `time_limit` has
-    /// passed (checked between frames), `cancel` is set, or `on_frame` breaks. `on_frame` sees
+    /// passed (checked between frames, after the first), `cancel` is set, or `on_frame` breaks. `on_frame` sees
     /// the film after every frame: the CLI's progress bar and the viewer's display both hang
     /// here. Returns the rays cast.
     pub fn run(
@@ -180,11 +180,15 @@ impl Progressive {
     ) -> RayCounts {
         let start = Instant::now();
         let mut rays = RayCounts::default();
+        let mut frames = 0;
         while !self.is_done() && !cancel.load(Ordering::Relaxed) {
-            if time_limit.is_some_and(|t| start.elapsed() >= t) {
+            // At least one frame, however short the limit: a limit of 0 wrote an all-black
+            // image that looked like a render.
+            if frames > 0 && time_limit.is_some_and(|t| start.elapsed() >= t) {
                 break;
             }
             let info = self.render_frame(scene, camera, cancel, &|_| {});
+            frames += 1;
             rays.add(info.rays);
             if on_frame(&self.film, &info).is_break() {
                 break;

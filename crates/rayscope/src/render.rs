@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
-use crate::film::Film;
+use crate::film::{Film, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
 use crate::math::{Color, Vec2};
 use crate::ray::Ray;
@@ -88,15 +88,15 @@ pub fn render_pass(
     // is no intermediate buffer to fill and copy. Every pixel's value depends only on the
     // pixel, so the split does not change the image.
     let band = BAND_ROWS * w;
-    let results: Vec<(RayCounts, bool)> = sums
+    let results: Vec<Band> = sums
         .par_chunks_mut(band)
         .zip(counts.par_chunks_mut(band))
         .enumerate()
         .map(|(b, (sums, counts))| {
             if cancel.load(Ordering::Relaxed) {
-                return (RayCounts::default(), false);
+                return Band { tally: Tally::default(), complete: false };
             }
-            let mut rays = RayCounts::default();
+            let mut tally = Tally::default();
             let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
             for (row, (sums, counts)) in rows.enumerate() {
                 let y = (b * BAND_ROWS + row) as u32;
@@ -106,7 +106,7 @@ pub fn render_pass(
                     // Pixels side by side that are at the same sample, seen by a still camera:
                     // their camera rays share the pinhole and go through the BVH together.
                     let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
-                    rays.add(if setup.still.is_some() && same {
+                    tally.add(if setup.still.is_some() && same {
                         setup.sample_run(pixels)
                     } else {
                         setup.sample_alone(pixels)
@@ -115,16 +115,39 @@ pub fn render_pass(
             }
             let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
             progress(RenderProgress { done: d, total });
-            (rays, true)
+            Band { tally, complete: true }
         })
         .collect();
-    let mut rays = RayCounts::default();
+    let mut sum = Tally::default();
     let mut complete = true;
-    for (r, ok) in results {
-        rays.add(r);
-        complete &= ok;
+    for band in results {
+        sum.add(band.tally);
+        complete &= band.complete;
     }
-    (rays, complete)
+    film.add_dropped(sum.dropped);
+    (sum.rays, complete)
+}
+
+/// What the samples of some pixels cast and left out.
+#[derive(Clone, Copy, Debug, Default)]
+struct Tally {
+    /// Rays cast.
+    rays: RayCounts,
+    /// Samples that were not finite, added as black ([`finite_or_black`]).
+    dropped: u64,
+}
+
+impl Tally {
+    fn add(&mut self, o: Tally) {
+        self.rays.add(o.rays);
+        self.dropped += o.dropped;
+    }
+}
+
+/// One band of rows of a pass: its tally, and whether it ran (false: cancelled first).
+struct Band {
+    tally: Tally,
+    complete: bool,
 }
 
 /// Rows per task in [`render_pass`]: enough work per task to amortise scheduling, few enough
@@ -207,10 +230,10 @@ impl Pass<'_> {
     /// by a still camera: each sample's camera rays are traced as one packet, then each
     /// pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same values, bit
     /// for bit, as pixel by pixel.
-    fn sample_run(&self, run: PixelRun) -> RayCounts {
+    fn sample_run(&self, run: PixelRun) -> Tally {
         let PixelRun { x0, y, sums, counts } = run;
         let n = sums.len();
-        let mut total = RayCounts::default();
+        let mut total = Tally::default();
         let first = counts[0];
         let last = sample_range(first, self.pass);
         let x = |i: usize| x0 + i.min(n - 1) as u32;
@@ -223,8 +246,9 @@ impl Pass<'_> {
             let mut rec = NoRecorder;
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {
                 let mut ctx = PathContext::new(sampler, &mut rec);
-                sums[i] += self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
-                total.add(ctx.counts);
+                let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
+                sums[i] += finite_or_black(c, &mut total.dropped);
+                total.rays.add(ctx.counts);
             }
         }
         counts.fill(last);
@@ -233,15 +257,15 @@ impl Pass<'_> {
 
     /// Add the pass's samples to `run` one pixel and one sample at a time (pixels at
     /// different sample counts, or a moving camera).
-    fn sample_alone(&self, run: PixelRun) -> RayCounts {
+    fn sample_alone(&self, run: PixelRun) -> Tally {
         let PixelRun { x0, y, sums, counts } = run;
-        let mut total = RayCounts::default();
+        let mut total = Tally::default();
         for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
             let last = sample_range(*count, self.pass);
             for k in *count..last {
                 let (c, r) = self.sample_pixel(x, y, k, &mut NoRecorder);
-                *sum += c;
-                total.add(r);
+                *sum += finite_or_black(c, &mut total.dropped);
+                total.rays.add(r);
             }
             *count = last;
         }

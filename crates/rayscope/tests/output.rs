@@ -63,3 +63,59 @@ fn written_files_are_ordinary_files() {
     write_image(&image(), &p, Encoding::Linear).unwrap();
     assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o644);
 }
+
+#[cfg(unix)]
+#[test]
+fn a_replaced_file_keeps_its_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("a.png");
+    std::fs::write(&p, b"old").unwrap();
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+    write_image(&image(), &p, Encoding::Linear).unwrap();
+    assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o7777, 0o640);
+    assert!(image::open(&p).is_ok());
+}
+
+#[cfg(unix)]
+#[test]
+fn symbolic_links_are_written_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("real")).unwrap();
+    std::fs::write(d.join("real/target.png"), b"old").unwrap();
+    std::os::unix::fs::symlink("real/target.png", d.join("link.png")).unwrap();
+    // A link to a link, and a link whose target does not exist yet.
+    std::os::unix::fs::symlink("link.png", d.join("link2.png")).unwrap();
+    std::os::unix::fs::symlink("real/new.png", d.join("dangling.png")).unwrap();
+    for name in ["link.png", "link2.png", "dangling.png"] {
+        write_image(&image(), &d.join(name), Encoding::Linear).unwrap();
+        assert!(std::fs::symlink_metadata(d.join(name)).unwrap().file_type().is_symlink(), "{name} stays a link");
+    }
+    assert!(image::open(d.join("real/target.png")).is_ok());
+    assert!(image::open(d.join("real/new.png")).is_ok());
+    // The temporary files were beside the targets, and are gone.
+    assert_eq!(std::fs::read_dir(d.join("real")).unwrap().count(), 2);
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 4);
+}
+
+#[test]
+fn only_regular_files_are_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("folder.png");
+    std::fs::create_dir(&p).unwrap();
+    let err = write_image(&image(), &p, Encoding::Linear).unwrap_err().to_string();
+    assert!(err.contains("not a regular file"), "{err}");
+    assert!(p.is_dir());
+}
+
+#[test]
+fn errors_name_the_output_and_say_the_system_error_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("no/such/dir/x.png");
+    let err = write_image(&image(), &p, Encoding::Linear).unwrap_err();
+    let text = err.to_string();
+    assert!(text.starts_with(&p.display().to_string()), "{text}");
+    assert!(!text.contains(".partial") && !text.contains(".rayscope-"), "{text}");
+    assert_eq!(text.matches("os error").count(), 1, "{text}");
+}

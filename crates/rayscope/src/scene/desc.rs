@@ -213,11 +213,13 @@ fn searched_folder(given: bool, dir: Option<&Path>) -> String {
 impl SceneDesc {
     /// Parse a TOML scene file's text; errors name `path` and the line.
     pub fn from_toml(text: &str, path: &Path) -> Result<SceneDesc> {
-        toml::from_str(text).map_err(|e| {
+        let desc: SceneDesc = toml::from_str(text).map_err(|e| {
             let span = e.span().map(|s| s.start.min(text.len())..s.end.min(text.len()));
             let line = span.clone().map(|s| culprit_line(text, s, e.message()));
             Error::parse(path, line, e.message().to_string())
-        })
+        })?;
+        check_values(&desc).map_err(|bad| Error::parse(path, bad.line_in(text), bad.to_string()))?;
+        Ok(desc)
     }
 
     /// This description as TOML.
@@ -339,12 +341,6 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
     let n = vertices.len();
     let bad =
         |what: String| Error::Invalid(format!("scene '{scene}', mesh '{}': {what}", d.name.as_deref().unwrap_or("")));
-    if let Some(f) = faces.iter().flatten().find(|&&i| i as usize >= n) {
-        return Err(bad(format!("face index {f} is out of range ({n} vertices)")));
-    }
-    if vertices.iter().any(|v| !v.is_finite()) {
-        return Err(bad("vertices must be finite".into()));
-    }
     let flat: Vec<u32> = faces.iter().flatten().copied().collect();
     let normals = match &d.normals {
         Some(ns) if ns.len() == n => ns.iter().map(|v| v.normalize_or_zero()).collect(),
@@ -386,6 +382,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
 /// materials and textures, check values, and build the BVH.
 pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     let name = desc.name.clone().unwrap_or_else(|| "scene".into());
+    check_values(desc).map_err(|bad| Error::Invalid(format!("scene '{name}': {bad}")))?;
     let mut textures = TextureCache::default();
     let mut materials: Vec<Material> = vec![Material::default()];
     let mut meshes = Vec::new();
@@ -432,11 +429,6 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     }
     let mut spheres = Vec::new();
     for s in &desc.spheres {
-        if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) {
-            return Err(Error::Invalid(format!(
-                "scene '{name}': a sphere needs a finite centre and a positive radius"
-            )));
-        }
         let mut m = Material::default();
         apply_override(&mut m, &s.material, &mut textures, &ctx.base_dir)?;
         materials.push(m);
@@ -446,9 +438,6 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
             material: materials.len() as u32 - 1,
             motion: motion(&s.motion, &name)?,
         });
-    }
-    if let Some(l) = desc.lights.iter().find(|l| !l.is_valid()) {
-        return Err(Error::Invalid(format!("scene '{name}': light {l:?} has non-finite values or a negative radius")));
     }
     let mut scene = Scene::new(
         name,
@@ -472,6 +461,224 @@ fn motion(d: &Option<MotionDesc>, scene: &str) -> Result<Option<Motion>> {
             Ok(Some(Motion { start: m.start.into(), end: m.end.into() }))
         }
         Some(_) => Err(Error::Invalid(format!("scene '{scene}': motion translations must be finite"))),
+    }
+}
+
+/// A value of a scene description that is out of its range, and where it is: the key in a
+/// table (`[camera]`) or in one of an array of tables (the third `[[light]]`).
+#[derive(Debug)]
+struct BadValue {
+    /// The table's name: `camera`, `camera_end`, `render`, `mesh`, `sphere` or `light`.
+    table: &'static str,
+    /// Which of the array of tables (0-based); `None` for a single table.
+    index: Option<usize>,
+    /// The key whose value is wrong; empty for the table as a whole.
+    key: &'static str,
+    /// What is wrong.
+    message: String,
+}
+
+impl std::fmt::Display for BadValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.table)?;
+        if let Some(i) = self.index {
+            write!(f, " {}", i + 1)?;
+        }
+        if !self.key.is_empty() {
+            write!(f, ", {}", self.key)?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl BadValue {
+    /// The 1-based line of the value in the scene file `text`: the key's line in its table,
+    /// else the table's header (or, for an inline table, its key's line).
+    fn line_in(&self, text: &str) -> Option<usize> {
+        let header = match self.index {
+            Some(_) => format!("[[{}]]", self.table),
+            None => format!("[{}]", self.table),
+        };
+        let key_of = |l: &str| l.split_once('=').map(|(k, _)| k.trim().to_string());
+        let mut lines = text.lines().enumerate();
+        let mut seen = 0;
+        let want = self.index.unwrap_or(0);
+        let start = lines.by_ref().find(|(_, l)| {
+            let hit = l.trim() == header && seen == want;
+            seen += usize::from(l.trim() == header);
+            hit
+        });
+        let Some((start, _)) = start else {
+            // An inline table (`camera = { ... }`): its key's line.
+            let top = text.lines().take_while(|l| !l.trim_start().starts_with('['));
+            return top.enumerate().find(|(_, l)| key_of(l).as_deref() == Some(self.table)).map(|(i, _)| i + 1);
+        };
+        let body = lines.take_while(|(_, l)| !l.trim_start().starts_with('['));
+        let found = body.filter(|_| !self.key.is_empty()).find(|(_, l)| key_of(l).as_deref() == Some(self.key));
+        Some(found.map_or(start, |(i, _)| i) + 1)
+    }
+}
+
+/// Check every number of a scene description: all finite, and each in its range. The parser
+/// checks the types; this, the values, so that none renders a blank or wrong image silently.
+fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
+    let bad = |table, index, key, message: &str| Err(BadValue { table, index, key, message: message.into() });
+    check_camera(&desc.camera).or_else(|e| bad("camera", None, e.key, e.message))?;
+    if let Some(c) = &desc.camera_end {
+        check_camera(c).or_else(|e| bad("camera_end", None, e.key, e.message))?;
+    }
+    if let Some(r) = &desc.render {
+        r.validate().or_else(|e| bad("render", None, "", &e.to_string()))?;
+    }
+    for (i, m) in desc.meshes.iter().enumerate() {
+        let at = |key, message: &str| bad("mesh", Some(i), key, message);
+        let n = m.vertices.as_ref().map_or(0, Vec::len);
+        if m.vertices.iter().flatten().any(|v| !v.is_finite()) {
+            at("vertices", "vertices must be finite")?;
+        }
+        if let Some(f) = m.faces.iter().flatten().flatten().find(|&&f| f as usize >= n) {
+            at("faces", &format!("face index {f} is out of range ({n} vertices)"))?;
+        }
+        if m.normals.iter().flatten().any(|v| !v.is_finite()) {
+            at("normals", "normals must be finite")?;
+        }
+        if m.uvs.iter().flatten().any(|v| !v.is_finite()) {
+            at("uvs", "texture coordinates must be finite")?;
+        }
+        for (key, d) in
+            [("material", m.material.as_ref())].into_iter().chain(m.materials.iter().map(|d| ("materials", Some(d))))
+        {
+            d.map_or(Ok(()), check_material).or_else(|msg| at(key, msg))?;
+        }
+        if let Some(t) = &m.transform {
+            check_transform(t).or_else(|msg| at("transform", msg))?;
+        }
+        check_motion(m.motion.as_ref()).or_else(|msg| at("motion", msg))?;
+    }
+    for (i, s) in desc.spheres.iter().enumerate() {
+        let at = |key, message: &str| bad("sphere", Some(i), key, message);
+        if !s.center.is_finite() {
+            at("center", "the centre must be finite")?;
+        }
+        if !(s.radius.is_finite() && s.radius > 0.0) {
+            at("radius", "the radius must be positive and finite")?;
+        }
+        check_material(&s.material).or_else(|msg| at("material", msg))?;
+        check_motion(s.motion.as_ref()).or_else(|msg| at("motion", msg))?;
+    }
+    for (i, l) in desc.lights.iter().enumerate() {
+        check_light(l).or_else(|e| bad("light", Some(i), e.key, e.message))?;
+    }
+    Ok(())
+}
+
+/// A value that is wrong inside a table: its key and what is wrong.
+struct BadKey {
+    key: &'static str,
+    message: &'static str,
+}
+
+/// The first of `values` that is not finite, as a [`BadKey`].
+fn first_infinite(values: &[(&'static str, &Vec3)]) -> Result<(), BadKey> {
+    match values.iter().find(|(_, v)| !v.is_finite()) {
+        Some(&(key, _)) => Err(BadKey { key, message: "must be finite" }),
+        None => Ok(()),
+    }
+}
+
+/// A camera's values: finite, a field of view in (0, 180) degrees and a positive distance
+/// (0 puts the eye in the look-at point, negative behind it: no view, or a mirrored one).
+fn check_camera(c: &CameraDesc) -> Result<(), BadKey> {
+    let fov = match c {
+        CameraDesc::Trackball { look_at, distance, rotation, fov } => {
+            first_infinite(&[("look_at", look_at), ("rotation", rotation)])?;
+            if !(distance.is_finite() && *distance > 0.0) {
+                return Err(BadKey { key: "distance", message: "must be positive and finite" });
+            }
+            fov
+        }
+        CameraDesc::LookAt { eye, target, up, fov } => {
+            first_infinite(&[("eye", eye), ("target", target), ("up", up)])?;
+            if eye == target {
+                return Err(BadKey { key: "target", message: "must differ from the eye" });
+            }
+            fov
+        }
+    };
+    if !(*fov > 0.0 && *fov < 180.0) {
+        return Err(BadKey { key: "fov", message: "the field of view must be between 0 and 180 degrees" });
+    }
+    Ok(())
+}
+
+/// A material's values: colours finite and not negative, a finite shininess of at least 0,
+/// transparency in [0, 1], and a glossiness of at least 0 (`inf` is a perfect mirror).
+fn check_material(m: &MaterialDesc) -> Result<(), &'static str> {
+    let colour = |c: Option<Vec3>| c.is_none_or(|c| c.is_finite() && c.min_element() >= 0.0);
+    if !(colour(m.kd) && colour(m.ks)) {
+        return Err("colours (kd, ks) must be finite and not negative");
+    }
+    if !m.shininess.is_none_or(|s| s.is_finite() && s >= 0.0) {
+        return Err("shininess must be finite and at least 0");
+    }
+    if !m.transparency.is_none_or(|t| (0.0..=1.0).contains(&t)) {
+        return Err("transparency must be in [0, 1]");
+    }
+    if !m.glossiness.is_none_or(|g| g >= 0.0) {
+        return Err("glossiness must be at least 0 (inf: a perfect mirror)");
+    }
+    Ok(())
+}
+
+/// A transform's values: finite, and a scale other than 0 (which would collapse the mesh).
+fn check_transform(t: &TransformDesc) -> Result<(), &'static str> {
+    if !(t.translate.is_finite() && t.rotate.is_finite() && t.scale.is_finite()) {
+        return Err("translate, rotate and scale must be finite");
+    }
+    if t.scale == 0.0 {
+        return Err("scale must not be 0");
+    }
+    Ok(())
+}
+
+fn check_motion(m: Option<&MotionDesc>) -> Result<(), &'static str> {
+    match m {
+        Some(m) if !(m.start.is_finite() && m.end.is_finite()) => Err("motion translations must be finite"),
+        _ => Ok(()),
+    }
+}
+
+/// A light's values: finite positions and vectors, colours finite and not negative, a radius
+/// of at least 0.
+fn check_light(l: &Light) -> Result<(), BadKey> {
+    match l {
+        Light::Point { position, color } => {
+            first_infinite(&[("position", position)])?;
+            first_bad_colour(&[("color", color)])
+        }
+        Light::Segment { endpoint0, endpoint1, color0, color1 } => {
+            first_infinite(&[("endpoint0", endpoint0), ("endpoint1", endpoint1)])?;
+            first_bad_colour(&[("color0", color0), ("color1", color1)])
+        }
+        Light::Parallelogram { v0, edge01, edge02, color0, color1, color2, color3 } => {
+            first_infinite(&[("v0", v0), ("edge01", edge01), ("edge02", edge02)])?;
+            first_bad_colour(&[("color0", color0), ("color1", color1), ("color2", color2), ("color3", color3)])
+        }
+        Light::Sphere { center, radius, color } => {
+            first_infinite(&[("center", center)])?;
+            if !(radius.is_finite() && *radius >= 0.0) {
+                return Err(BadKey { key: "radius", message: "must be finite and at least 0" });
+            }
+            first_bad_colour(&[("color", color)])
+        }
+    }
+}
+
+/// The first of `colours` that is not finite or has a negative channel, as a [`BadKey`].
+fn first_bad_colour(colours: &[(&'static str, &Vec3)]) -> Result<(), BadKey> {
+    match colours.iter().find(|(_, c)| !(c.is_finite() && c.min_element() >= 0.0)) {
+        Some(&(key, _)) => Err(BadKey { key, message: "colours must be finite and not negative" }),
+        None => Ok(()),
     }
 }
 
@@ -632,11 +839,15 @@ color3 = [0, 1, 1]
     #[test]
     fn bad_values_are_rejected() {
         let nan_light = "[[light]]\nkind = \"point\"\nposition = [nan, 0, 0]\ncolor = [1, 1, 1]\n";
-        let d = SceneDesc::from_toml(nan_light, Path::new("s.toml")).unwrap();
-        assert!(matches!(load(&d, &LoadContext::default()), Err(Error::Invalid(_))));
         let bad_face = "[[mesh]]\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = [[0,1,3]]\n";
-        let d = SceneDesc::from_toml(bad_face, Path::new("s.toml")).unwrap();
-        assert!(matches!(load(&d, &LoadContext::default()), Err(Error::Invalid(_))));
+        for text in [nan_light, bad_face] {
+            // A scene file's values are checked as it is read, at their line; a description
+            // made in code, when it is loaded.
+            let parsed = SceneDesc::from_toml(text, Path::new("s.toml"));
+            assert!(matches!(parsed, Err(Error::Parse { line: Some(3), .. })), "{parsed:?}");
+            let d: SceneDesc = toml::from_str(text).unwrap();
+            assert!(matches!(load(&d, &LoadContext::default()), Err(Error::Invalid(_))));
+        }
         let two_sources = "[[mesh]]\npath = \"a.obj\"\nasset = \"b.obj\"\n";
         let d = SceneDesc::from_toml(two_sources, Path::new("s.toml")).unwrap();
         assert!(load(&d, &LoadContext::default()).is_err());
