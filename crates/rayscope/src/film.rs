@@ -109,13 +109,22 @@ impl Film {
 
 /// `c` if it is finite, else black and `dropped` counts it: what a sample may add to a film.
 #[inline(always)]
+#[allow(clippy::eq_op, reason = "`x - x` tells a finite `x` (0) from an infinite or NaN one (NaN)")]
 pub fn finite_or_black(c: Color, dropped: &mut u64) -> Color {
-    if c.is_finite() {
-        c
-    } else {
-        *dropped += 1;
-        Color::ZERO
-    }
+    // `x - x` is 0 for a finite `x` and NaN for an infinite or NaN one, so one sum of the
+    // three differences checks all components with one compare and one well-predicted branch
+    // (three `is_finite` tests, each with its own branch, cost 2-3% of a 1-spp render's
+    // instructions).
+    let zero = (c.x - c.x) + (c.y - c.y) + (c.z - c.z);
+    if zero == 0.0 { c } else { not_finite(dropped) }
+}
+
+/// The rare path of [`finite_or_black`], out of the sample loop.
+#[cold]
+#[inline(never)]
+fn not_finite(dropped: &mut u64) -> Color {
+    *dropped += 1;
+    Color::ZERO
 }
 
 /// A float image of 1 or 3 channels, rows from the top, channels interleaved: colour or an
@@ -138,5 +147,27 @@ impl FloatImage {
         let c = self.channels as usize;
         let i = (y as usize * self.width as usize + x as usize) * c;
         &self.data[i..i + c]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_finite_samples_pass() {
+        let mut dropped = 0;
+        for c in [Color::ZERO, Color::new(f32::MAX, -f32::MAX, f32::MIN_POSITIVE), Color::new(0.5, 1.0, 3.0)] {
+            assert_eq!(finite_or_black(c, &mut dropped), c);
+        }
+        assert_eq!(dropped, 0);
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for axis in 0..3 {
+                let mut c = Color::splat(0.25);
+                c[axis] = bad;
+                assert_eq!(finite_or_black(c, &mut dropped), Color::ZERO, "{c:?}");
+            }
+        }
+        assert_eq!(dropped, 9);
     }
 }
