@@ -423,7 +423,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
                 mesh.materials.iter_mut().for_each(|m| *m = idx);
             }
             placement.apply(&mut mesh);
-            mesh.motion = motion(&d.motion, &name)?;
+            mesh.motion = motion(&d.motion);
             meshes.push(mesh);
         }
     }
@@ -436,7 +436,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
             center: s.center.into(),
             radius: s.radius,
             material: materials.len() as u32 - 1,
-            motion: motion(&s.motion, &name)?,
+            motion: motion(&s.motion),
         });
     }
     let mut scene = Scene::new(
@@ -454,14 +454,9 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     Ok(scene)
 }
 
-fn motion(d: &Option<MotionDesc>, scene: &str) -> Result<Option<Motion>> {
-    match d {
-        None => Ok(None),
-        Some(m) if m.start.is_finite() && m.end.is_finite() => {
-            Ok(Some(Motion { start: m.start.into(), end: m.end.into() }))
-        }
-        Some(_) => Err(Error::Invalid(format!("scene '{scene}': motion translations must be finite"))),
-    }
+/// The motion a description gives (its values were checked by [`check_values`]).
+fn motion(d: &Option<MotionDesc>) -> Option<Motion> {
+    d.as_ref().map(|m| Motion { start: m.start.into(), end: m.end.into() })
 }
 
 /// A value of a scene description that is out of its range, and where it is: the key in a
@@ -840,7 +835,9 @@ color3 = [0, 1, 1]
     fn bad_values_are_rejected() {
         let nan_light = "[[light]]\nkind = \"point\"\nposition = [nan, 0, 0]\ncolor = [1, 1, 1]\n";
         let bad_face = "[[mesh]]\nvertices = [[0,0,0],[1,0,0],[0,1,0]]\nfaces = [[0,1,3]]\n";
-        for text in [nan_light, bad_face] {
+        let nan_motion =
+            "[[sphere]]\ncenter = [0, 0, 0]\nmotion = { start = [0, 0, 0], end = [nan, 0, 0] }\nradius = 1\n";
+        for text in [nan_light, bad_face, nan_motion] {
             // A scene file's values are checked as it is read, at their line; a description
             // made in code, when it is loaded.
             let parsed = SceneDesc::from_toml(text, Path::new("s.toml"));
