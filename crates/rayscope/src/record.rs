@@ -155,17 +155,26 @@ pub struct RecordedRay {
 }
 
 impl std::fmt::Display for StoppedBranch {
-    /// The debugger's explanation: "reflection not cast: weight 0.0030 below adc_bailout 0.0039".
+    /// The debugger's explanation: "reflection not cast: weight 0.003 below adc_bailout 0.0039".
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let rays = if self.rays == 1 { String::new() } else { format!(" ({} rays)", self.rays) };
         write!(
             f,
-            "{}{rays} not cast: weight {:.4} below adc_bailout {:.4}",
+            "{}{rays} not cast: weight {} below adc_bailout {}",
             self.kind.noun(),
-            self.weight,
-            self.adc_bailout
+            three_digits(self.weight),
+            three_digits(self.adc_bailout)
         )
     }
+}
+
+/// `x` rounded to three significant digits, for people: weights span many decades.
+fn three_digits(x: f32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x.into();
+    }
+    let scale = 10f64.powi(2 - f64::from(x.abs()).log10().floor() as i32);
+    (f64::from(x) * scale).round() / scale
 }
 
 /// The most rays (camera, secondary and shadow rays together) a [`RayTree::default`] records:
@@ -183,6 +192,25 @@ pub struct TreeCut {
     pub rays: u64,
     /// Shadow rays not recorded.
     pub shadow_rays: u64,
+}
+
+impl std::fmt::Display for TreeCut {
+    /// The debugger's note: "the first 1000 rays and shadow rays are recorded; 52311 more were
+    /// traced (their light is in the colours) but not recorded: 32331 rays and 19980 shadow rays".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = |n: u64| if n == 1 { "" } else { "s" };
+        write!(
+            f,
+            "the first {} rays and shadow rays are recorded; {} more were traced (their light is in the colours) \
+             but not recorded: {} ray{} and {} shadow ray{}",
+            self.limit,
+            self.rays + self.shadow_rays,
+            self.rays,
+            s(self.rays),
+            self.shadow_rays,
+            s(self.shadow_rays)
+        )
+    }
 }
 
 /// The tree of one pixel's rays, in the order they were cast, up to a bound.

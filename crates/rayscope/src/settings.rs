@@ -85,6 +85,9 @@ impl Default for RenderSettings {
 /// weight can halve 10 times before it falls below).
 pub const DEFAULT_ADC_BAILOUT: f32 = 1.0 / 1024.0;
 
+/// Deepest accepted [`RenderSettings::max_depth`].
+pub const MAX_DEPTH: u32 = 64;
+
 /// Largest accepted image side, in pixels (a 16k x 16k float film is already 3 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
@@ -104,8 +107,8 @@ impl RenderSettings {
         if !self.background.is_finite() {
             return bad("background colour must be finite".into());
         }
-        if self.max_depth > 64 {
-            return bad(format!("max depth {} is out of range (0 to 64)", self.max_depth));
+        if self.max_depth > MAX_DEPTH {
+            return bad(format!("max depth {} is out of range (0 to {MAX_DEPTH})", self.max_depth));
         }
         if !(0.0..=1.0).contains(&self.adc_bailout) {
             return bad(format!("adc_bailout {} is out of range (0 to 1; 0 turns it off)", self.adc_bailout));

@@ -100,7 +100,7 @@ fn a_mirror_chain_stops_where_its_weight_falls_below_the_bailout() {
     assert_eq!(deepest(&tree), 6);
     let stop = StoppedBranch { kind: RayKind::Reflection, rays: 1, weight: 0.5f32.powi(7), adc_bailout: 0.01 };
     assert_eq!(tree.rays[6].stopped, [stop]);
-    assert_eq!(stop.to_string(), "reflection not cast: weight 0.0078 below adc_bailout 0.0100");
+    assert_eq!(stop.to_string(), "reflection not cast: weight 0.00781 below adc_bailout 0.01");
     // Off, the chain goes on to max_depth, as before adaptive depth control.
     let (tree, _) = centre_tree(meshes(), &RenderSettings { adc_bailout: 0.0, ..s.clone() });
     assert_eq!((tree.rays.len(), deepest(&tree)), (65, 64));
