@@ -24,7 +24,7 @@ pub enum RayKind {
 }
 
 impl RayKind {
-    /// What a person calls a ray of this kind: "reflection", "glossy ray".
+    /// What a person calls a ray of this kind: "reflection", "glossy reflection".
     pub fn noun(self) -> &'static str {
         match self {
             RayKind::Camera => "camera ray",
