@@ -496,3 +496,81 @@ fn a_file_the_user_may_not_write_is_not_replaced() {
     assert!(image::open(&p).is_ok());
     assert_eq!(std::fs::metadata(&p).unwrap().permissions().mode() & 0o777, 0o666);
 }
+
+/// Two nested spheres that reflect fully and let half the light through: every hit casts two
+/// rays that hit again (issue 14: at --max-depth 64 it never finished, and `debug` grew to 5 GB).
+const NESTED_SPHERES: &str = r#"
+[camera]
+kind = "look-at"
+eye = [0, 0, -3]
+target = [0, 0, 0]
+up = [0, 1, 0]
+fov = 40
+[[sphere]]
+center = [0, 0, 0]
+radius = 1.0
+material = { kd = [0.5, 0.5, 0.5], ks = [1, 1, 1], shininess = 20, transparency = 0.5 }
+[[sphere]]
+center = [0, 0, 0]
+radius = 0.5
+material = { kd = [0.5, 0.5, 0.5], ks = [1, 1, 1], shininess = 20, transparency = 0.5 }
+[[light]]
+kind = "point"
+position = [0.3, 0.2, -0.2]
+color = [1, 1, 1]
+[render]
+width = 8
+height = 8
+"#;
+
+#[test]
+fn debug_explains_stopped_branches_and_a_cut_tree() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("nested.toml"), NESTED_SPHERES).unwrap();
+    let json = |o: &Output| serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap();
+    // Adaptive depth control stops the tree; the debugger says where and why.
+    let o = rayscope(d, &["debug", "nested.toml", "--pixel", "4,4", "--max-depth", "64"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    assert!(v["cut"].is_null() && v["rays"].as_array().unwrap().len() < 2048);
+    let stopped = v["rays"].as_array().unwrap().iter().find(|r| r["stopped"].is_array()).expect("a stopped branch");
+    assert_eq!(stopped["stopped"][0]["adc_bailout"], 1.0 / 1024.0);
+    let err = stderr(&o);
+    assert!(err.contains("adaptive depth control stopped") && err.contains("below adc_bailout 0.000977"), "{err}");
+    // Without it the tree passes the bound given; the rest is counted, not printed.
+    let o = rayscope(
+        d,
+        &["debug", "nested.toml", "--pixel", "4,4", "--max-depth", "16", "--adc-bailout", "0", "--max-rays", "1000"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    let rays = v["rays"].as_array().unwrap();
+    let shadows: usize = rays.iter().map(|r| r["shadows"].as_array().unwrap().len()).sum();
+    assert_eq!(rays.len() + shadows, 1000);
+    assert_eq!(v["cut"]["limit"], 1000);
+    assert!(v["cut"]["rays"].as_u64().unwrap() > 0);
+    let err = stderr(&o);
+    assert!(
+        err.contains("the ray tree was cut (--max-rays): the first 1000 rays") && !err.contains("adaptive"),
+        "{err}"
+    );
+}
+
+#[test]
+fn adc_bailout_is_checked_from_the_flag_and_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("nested.toml"), NESTED_SPHERES).unwrap();
+    std::fs::write(d.join("bad.toml"), "[render]\nadc_bailout = 2.5\n").unwrap();
+    std::fs::write(d.join("off.toml"), format!("{NESTED_SPHERES}max_depth = 3\nadc_bailout = 0\n")).unwrap();
+    fails_with(d, &["render", "-o", "o.png", "--adc-bailout", "1.5"], &["adc_bailout 1.5", "0 to 1"]);
+    fails_with(d, &["render", "-o", "o.png", "--adc-bailout", "NaN"], &["adc_bailout NaN"]);
+    fails_with(d, &["render", "bad.toml", "-o", "o.png"], &["bad.toml", "adc_bailout 2.5"]);
+    // The file's 0 turns it off: at max_depth 3 the tree is whole (15 rays at most).
+    let o = rayscope(d, &["debug", "off.toml", "--pixel", "4,4"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("adaptive"), "{}", stderr(&o));
+    let o = rayscope(d, &["debug", "off.toml", "--pixel", "4,4", "--adc-bailout", "0.3"]);
+    assert!(stderr(&o).contains("below adc_bailout 0.3"), "{}", stderr(&o));
+}

@@ -10,7 +10,7 @@ use rayscope::camera::CameraMotion;
 use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, write_image};
 use rayscope::scene::builtin;
-use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
+use rayscope::settings::{MAX_DEPTH, PixelFilter, RenderSettings, TextureFilter};
 
 use crate::files::{BrowserAction, FileBrowser};
 use crate::plural::counted;
@@ -18,6 +18,10 @@ use crate::preview::{LineVertex, Preview};
 use crate::session::{NO_DISPLAY_HINT, check_display};
 use crate::state::{ModeChoice, OverlayKey, ViewKind, ViewerState};
 use crate::worker::{FrameImage, RenderJob, Worker};
+
+/// The most rays the ray-tree panel lists: each is a widget drawn every frame, and a tree
+/// can hold up to [`crate::state::RECORDED_RAYS`].
+const LISTED_RAYS: usize = 1000;
 
 /// How the viewer starts.
 #[derive(Clone, Debug, Default)]
@@ -314,8 +318,18 @@ impl RayscopeApp {
             ui.checkbox(&mut s.textures, "Textures").on_hover_text("Use diffuse textures (map_Kd)");
             ui.checkbox(&mut s.interpolate_normals, "Interpolated normals")
                 .on_hover_text("Blend vertex normals across triangles (smooth shading)");
-            ui.add(egui::Slider::new(&mut s.max_depth, 0..=10).text("Max recursion depth"))
+            ui.add(egui::Slider::new(&mut s.max_depth, 0..=MAX_DEPTH).text("Max recursion depth"))
                 .on_hover_text("Rays at this depth cast no reflection or transmission ray");
+            ui.add(
+                egui::Slider::new(&mut s.adc_bailout, 0.0..=1.0)
+                    .logarithmic(true)
+                    .smallest_positive(1e-5)
+                    .text("ADC bailout"),
+            )
+            .on_hover_text(
+                "Adaptive depth control: no reflection or transmission ray whose weight (the share of its light \
+                 that reaches the pixel) is below this; 0 turns it off",
+            );
             ui.add(egui::Slider::new(&mut s.spp, 1..=64).text("Anti-aliasing rays"))
                 .on_hover_text("Camera rays per pixel in each frame");
             ui.add(egui::Slider::new(&mut s.light_samples, 0..=256).text("Rays per light"))
@@ -386,7 +400,10 @@ impl RayscopeApp {
             egui::CollapsingHeader::new(format!("Ray tree ({})", counted(sel.tree.rays.len() as u64, "ray", "rays")))
                 .default_open(true)
                 .show(ui, |ui| {
-                    for (i, r) in sel.tree.rays.iter().enumerate() {
+                    if let Some(cut) = &sel.tree.cut {
+                        ui.colored_label(ui.visuals().warn_fg_color, format!("Tree cut: {cut}"));
+                    }
+                    for (i, r) in sel.tree.rays.iter().enumerate().take(LISTED_RAYS) {
                         let title = format!("#{i} {:?} · depth {}", r.kind, r.depth);
                         egui::CollapsingHeader::new(title).id_salt(("ray", i)).default_open(i < 4).show(ui, |ui| {
                             match &r.hit {
@@ -405,7 +422,16 @@ impl RayscopeApp {
                                 let rays = counted(r.shadows.len() as u64, "shadow ray", "shadow rays");
                                 ui.label(format!("{rays}: {reached} reached, {} blocked", r.shadows.len() - reached));
                             }
+                            for stopped in &r.stopped {
+                                ui.label(format!("adaptive depth control: {stopped}"));
+                            }
                         });
+                    }
+                    if let Some(more) = sel.tree.rays.len().checked_sub(LISTED_RAYS).filter(|&n| n > 0) {
+                        ui.label(format!(
+                            "… and {} more, not listed here (`rayscope debug` prints them all)",
+                            counted(more as u64, "ray", "rays")
+                        ));
                     }
                     if ui.button("Clear selection").on_hover_text("Stop debugging this pixel").clicked() {
                         clear = true;

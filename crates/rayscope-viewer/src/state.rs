@@ -19,6 +19,10 @@ use rayscope::settings::RenderSettings;
 use crate::preview::LineVertex;
 use crate::trackball::Trackball;
 
+/// The most rays (shadow rays included) the viewer records for a debugged pixel, a tenth of
+/// `rayscope debug`'s bound: the 3D view draws every recorded ray in every frame.
+pub const RECORDED_RAYS: usize = 10_000;
+
 /// Which image the viewport shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ViewKind {
@@ -243,7 +247,7 @@ impl ViewerState {
     /// Debug pixel `(x, y)`: trace its first sample with the library's recorder.
     pub fn select_pixel(&mut self, x: u32, y: u32) {
         let camera = self.camera();
-        let mut tree = RayTree::default();
+        let mut tree = RayTree::with_limit(RECORDED_RAYS);
         let color = trace_pixel(&self.scene, &self.settings, &camera, x, y, 0, &mut tree);
         let visited = match tree.rays.first() {
             Some(r) => {
@@ -483,7 +487,7 @@ mod tests {
         let mut s = state();
         s.select_pixel(400, 400);
         let sel = s.selection.as_ref().unwrap();
-        let mut tree = RayTree::default();
+        let mut tree = RayTree::with_limit(RECORDED_RAYS);
         let color = trace_pixel(&s.scene, &s.settings, &s.scene.camera_motion(), 400, 400, 0, &mut tree);
         assert_eq!(sel.tree, tree);
         assert_eq!(sel.color, color);

@@ -205,3 +205,41 @@ fn pick_a_scene_and_show_bvh_boxes() {
     let boxes = count(&img, rect, |c| near(c, rayscope_viewer::state::BOX_COLOR));
     assert!(boxes > 100, "the root box is drawn ({boxes})");
 }
+
+#[test]
+fn the_ray_panel_explains_stopped_branches_and_a_cut_tree() {
+    // Two nested spheres that reflect fully and let half the light through: every hit casts
+    // two rays that hit again.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("nested.toml");
+    let glass = "material = { kd = [0.5, 0.5, 0.5], ks = [1, 1, 1], shininess = 20, transparency = 0.5 }";
+    let text = format!(
+        "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1.0\n{glass}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 0.5\n\
+         {glass}\n[[light]]\nkind = \"point\"\nposition = [0.3, 0.2, -0.2]\ncolor = [1, 1, 1]\n"
+    );
+    std::fs::write(&scene, text).unwrap();
+    let small = rayscope::settings::RenderSettings { width: 8, height: 8, ..Default::default() };
+    let open = |settings| {
+        let scene = scene.to_string_lossy().into_owned();
+        harness(ViewerOptions { scene, settings: Some(settings), debug_pixel: Some((4, 4)), ..Default::default() })
+    };
+    // The camera ray's reflection and transmission weigh 0.5 each: below 0.6, neither is cast.
+    let Some(mut h) = open(rayscope::settings::RenderSettings { adc_bailout: 0.6, ..small.clone() }) else { return };
+    wait_frames(&mut h, 1);
+    assert_eq!(h.state().state.selection.as_ref().unwrap().tree.rays[0].stopped.len(), 2);
+    h.get_by_label("adaptive depth control: reflection not cast: weight 0.5 below adc_bailout 0.6");
+    h.get_by_label("adaptive depth control: transmission not cast: weight 0.5 below adc_bailout 0.6");
+    // Its slider shows the value, not one clamped to a narrower range.
+    assert_eq!(h.state().state.settings.adc_bailout, 0.6);
+    assert!(h.query_all_by_label("ADC bailout").next().is_some());
+    // Without it, at depth 22 the tree passes the recorder's bound, and the panel says so.
+    let Some(mut h) = open(rayscope::settings::RenderSettings { adc_bailout: 0.0, max_depth: 22, ..small }) else {
+        return;
+    };
+    wait_frames(&mut h, 1);
+    // (The max-depth slider kept 22: it clamped to 10 before.)
+    assert_eq!(h.state().state.settings.max_depth, 22);
+    assert!(h.state().state.selection.as_ref().unwrap().tree.cut.is_some());
+    h.get_by_label_contains("Tree cut: the first 10000 rays and shadow rays are recorded");
+    h.get_by_label_contains("more, not listed here");
+}

@@ -23,6 +23,18 @@ pub enum RayKind {
     Glossy,
 }
 
+impl RayKind {
+    /// What a person calls a ray of this kind: "reflection", "glossy reflection".
+    pub fn noun(self) -> &'static str {
+        match self {
+            RayKind::Camera => "camera ray",
+            RayKind::Reflection => "reflection",
+            RayKind::Transmission => "transmission",
+            RayKind::Glossy => "glossy reflection",
+        }
+    }
+}
+
 /// What a recorded ray hit.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct RecordedHit {
@@ -55,9 +67,27 @@ pub trait RayRecorder {
     /// `transmitted` the light fraction that got through.
     #[inline(always)]
     fn shadow(&mut self, _shadow: &ShadowEvent) {}
+    /// Adaptive depth control did not cast a branch of the current ray (its weight is below
+    /// `adc_bailout`).
+    #[inline(always)]
+    fn stopped(&mut self, _branch: &StoppedBranch) {}
     /// The current ray is done and returns `color`.
     #[inline(always)]
     fn end_ray(&mut self, _color: Color) {}
+}
+
+/// A secondary ray (or a glossy reflection's rays) that adaptive depth control did not cast:
+/// why the debugger shows no reflection or transmission where the material has one.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct StoppedBranch {
+    /// What the branch would have cast.
+    pub kind: RayKind,
+    /// How many rays it would have cast (a glossy reflection's samples, else 1).
+    pub rays: u32,
+    /// The weight of each of those rays (the largest colour channel).
+    pub weight: f32,
+    /// The `adc_bailout` it fell below.
+    pub adc_bailout: f32,
 }
 
 /// A shadow ray as the integrator reports it.
@@ -119,43 +149,161 @@ pub struct RecordedRay {
     pub shadows: Vec<RecordedShadow>,
     /// The colour this ray returned (its contribution before the parent's weighting).
     pub color: [f32; 3],
+    /// The branches of its hit that adaptive depth control did not cast.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub stopped: Vec<StoppedBranch>,
 }
 
-/// The full tree of one pixel's rays, in the order they were cast.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+impl std::fmt::Display for StoppedBranch {
+    /// The debugger's explanation: "reflection not cast: weight 0.003 below adc_bailout 0.0039".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let rays = if self.rays == 1 { String::new() } else { format!(" ({} rays)", self.rays) };
+        write!(
+            f,
+            "{}{rays} not cast: weight {} below adc_bailout {}",
+            self.kind.noun(),
+            three_digits(self.weight),
+            three_digits(self.adc_bailout)
+        )
+    }
+}
+
+/// `x` rounded to three significant digits, for people: weights span many decades.
+fn three_digits(x: f32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x.into();
+    }
+    let scale = 10f64.powi(2 - f64::from(x.abs()).log10().floor() as i32);
+    (f64::from(x) * scale).round() / scale
+}
+
+/// The most rays (camera, secondary and shadow rays together) a [`RayTree::default`] records:
+/// about 15 MB of tree, and the rays a person can look through. Trees are small with adaptive
+/// depth control on; without it one pixel can cast billions of rays.
+pub const MAX_RECORDED_RAYS: usize = 100_000;
+
+/// What a [`RayTree`] did not record once it was full. The colours it did record are still the
+/// renderer's: the unrecorded rays were traced and counted, only not kept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct TreeCut {
+    /// The tree's bound: rays recorded, shadow rays included.
+    pub limit: usize,
+    /// Camera and secondary rays not recorded.
+    pub rays: u64,
+    /// Shadow rays not recorded.
+    pub shadow_rays: u64,
+}
+
+impl std::fmt::Display for TreeCut {
+    /// The debugger's note: "the first 1000 rays and shadow rays are recorded; 52311 more were
+    /// traced (their light is in the colours) but not recorded: 32331 rays and 19980 shadow rays".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = |n: u64| if n == 1 { "" } else { "s" };
+        write!(
+            f,
+            "the first {} rays and shadow rays are recorded; {} more were traced (their light is in the colours) \
+             but not recorded: {} ray{} and {} shadow ray{}",
+            self.limit,
+            self.rays + self.shadow_rays,
+            self.rays,
+            s(self.rays),
+            self.shadow_rays,
+            s(self.shadow_rays)
+        )
+    }
+}
+
+/// The tree of one pixel's rays, in the order they were cast, up to a bound.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RayTree {
     /// The rays; a ray's parent comes before it.
     pub rays: Vec<RecordedRay>,
+    /// Set when the tree reached its bound: how much was not recorded.
+    pub cut: Option<TreeCut>,
+    /// The most rays and shadow rays it records.
     #[serde(skip)]
-    open: Vec<usize>,
+    limit: usize,
+    /// Rays and shadow rays recorded so far.
+    #[serde(skip)]
+    recorded: usize,
+    /// The rays being traced, innermost last; `None` for one that is not recorded.
+    #[serde(skip)]
+    open: Vec<Option<usize>>,
+}
+
+impl Default for RayTree {
+    /// A tree of at most [`MAX_RECORDED_RAYS`].
+    fn default() -> Self {
+        RayTree::with_limit(MAX_RECORDED_RAYS)
+    }
+}
+
+impl RayTree {
+    /// A tree that records at most `limit` rays, shadow rays included.
+    pub fn with_limit(limit: usize) -> Self {
+        RayTree { rays: Vec::new(), cut: None, limit, recorded: 0, open: Vec::new() }
+    }
+
+    /// Whether the tree has room for one more ray; counts the ray in [`RayTree::cut`] when not.
+    fn room(&mut self, shadow: bool) -> bool {
+        if self.recorded < self.limit {
+            self.recorded += 1;
+            return true;
+        }
+        let cut = self.cut.get_or_insert(TreeCut { limit: self.limit, rays: 0, shadow_rays: 0 });
+        if shadow {
+            cut.shadow_rays += 1;
+        } else {
+            cut.rays += 1;
+        }
+        false
+    }
+
+    /// The recorded ray being traced, if it is recorded.
+    fn current(&mut self) -> Option<&mut RecordedRay> {
+        let i = (*self.open.last()?)?;
+        Some(&mut self.rays[i])
+    }
 }
 
 impl RayRecorder for RayTree {
     const RECORDS: bool = true;
 
     fn begin_ray(&mut self, kind: RayKind, depth: u32, ray: &Ray) {
+        if !self.room(false) {
+            self.open.push(None);
+            return;
+        }
+        // Once the tree is full no ray is recorded, so a recorded ray's parent is recorded too.
+        let parent = self.open.last().copied().flatten();
         self.rays.push(RecordedRay {
             kind,
             depth,
-            parent: self.open.last().copied(),
+            parent,
             origin: ray.origin.to_array(),
             dir: ray.dir.to_array(),
             hit: None,
             shadows: Vec::new(),
             color: [0.0; 3],
+            stopped: Vec::new(),
         });
-        self.open.push(self.rays.len() - 1);
+        self.open.push(Some(self.rays.len() - 1));
     }
 
     fn hit(&mut self, hit: Option<RecordedHit>) {
-        if let Some(&i) = self.open.last() {
-            self.rays[i].hit = hit;
+        if let Some(r) = self.current() {
+            r.hit = hit;
         }
     }
 
     fn shadow(&mut self, s: &ShadowEvent) {
-        if let Some(&i) = self.open.last() {
-            self.rays[i].shadows.push(RecordedShadow {
+        // A ray that is not recorded came after the tree filled up, so its shadow rays find no
+        // room either.
+        if !self.room(true) {
+            return;
+        }
+        if let Some(r) = self.current() {
+            r.shadows.push(RecordedShadow {
                 light: s.light,
                 from: s.from.to_array(),
                 to: s.to.to_array(),
@@ -166,8 +314,14 @@ impl RayRecorder for RayTree {
         }
     }
 
+    fn stopped(&mut self, branch: &StoppedBranch) {
+        if let Some(r) = self.current() {
+            r.stopped.push(*branch);
+        }
+    }
+
     fn end_ray(&mut self, color: Color) {
-        if let Some(i) = self.open.pop() {
+        if let Some(Some(i)) = self.open.pop() {
             self.rays[i].color = color.to_array();
         }
     }

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{Rng, inline_scene};
+use common::{Rng, inline_scene, plane};
 use rayscope::aov::{Aov, render_aov};
 use rayscope::camera::CameraDesc;
 use rayscope::light::Light;
@@ -10,7 +10,7 @@ use rayscope::material::MaterialDesc;
 use rayscope::math::{Color, Vec3, Vec3A};
 use rayscope::ray::Ray;
 use rayscope::render::render;
-use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc};
+use rayscope::scene::{LoadContext, Scene, SceneDesc};
 use rayscope::settings::RenderSettings;
 
 /// A 5x5 image whose centre pixel's ray goes exactly through the origin along +z.
@@ -20,19 +20,6 @@ fn settings() -> RenderSettings {
 
 fn camera() -> CameraDesc {
     CameraDesc::LookAt { eye: Vec3::new(0.0, 0.0, -3.0), target: Vec3::ZERO, up: Vec3::Y, fov: 30.0 }
-}
-
-/// A big square in the plane z = `z`, facing the camera.
-fn plane(z: f32, material: MaterialDesc) -> MeshDesc {
-    let s = 50.0;
-    let mut m = inline_scene(
-        vec![Vec3::new(-s, -s, z), Vec3::new(s, -s, z), Vec3::new(s, s, z), Vec3::new(-s, s, z)],
-        vec![[0, 1, 2], [0, 2, 3]],
-    )
-    .meshes
-    .remove(0);
-    m.material = Some(material);
-    m
 }
 
 fn centre(scene: &SceneDesc, s: &RenderSettings) -> Color {

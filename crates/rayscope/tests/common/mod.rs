@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use rayscope::material::MaterialDesc;
 use rayscope::math::{Vec3, Vec3A};
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
 
@@ -71,4 +72,17 @@ pub fn inline_scene(vertices: Vec<Vec3>, faces: Vec<[u32; 3]>) -> SceneDesc {
         meshes: vec![MeshDesc { vertices: Some(vertices), faces: Some(faces), ..MeshDesc::default() }],
         ..SceneDesc::default()
     }
+}
+
+/// A big square in the plane z = `z`, facing -z (the shading tests' camera), of `material`.
+pub fn plane(z: f32, material: MaterialDesc) -> MeshDesc {
+    let s = 50.0;
+    let mut m = inline_scene(
+        vec![Vec3::new(-s, -s, z), Vec3::new(s, -s, z), Vec3::new(s, s, z), Vec3::new(-s, s, z)],
+        vec![[0, 1, 2], [0, 2, 3]],
+    )
+    .meshes
+    .remove(0);
+    m.material = Some(material);
+    m
 }
