@@ -36,8 +36,8 @@ pub enum Error {
     },
     /// A file is larger than the loaders read ([`crate::scene::max_file_bytes`]).
     #[error(
-        "{path}: larger than the limit of {limit} bytes; set RAYSCOPE_MAX_FILE_BYTES to a larger number of \
-         bytes to read it"
+        "{path}: larger than the limit of {limit} bytes; to read it, raise the limit with --max-file-bytes N or \
+         the RAYSCOPE_MAX_FILE_BYTES environment variable (a number of bytes)"
     )]
     TooLarge {
         /// The file.

@@ -109,9 +109,27 @@ fn files_larger_than_the_limit_are_refused_before_reading() {
     match load(&path) {
         Err(e @ Error::TooLarge { .. }) => {
             assert!(e.to_string().contains("RAYSCOPE_MAX_FILE_BYTES"), "{e}");
+            assert!(e.to_string().contains("--max-file-bytes"), "{e}");
         }
         Err(e) => panic!("expected 'too large', got {e}"),
         Ok(_) => panic!("loaded"),
+    }
+}
+
+#[test]
+fn a_large_file_of_zeros_fails_at_line_1_without_being_read() {
+    let dir = folder(&[]);
+    // Sparse, under the limit: streamed, the first line's NUL ends the reading, where the
+    // whole file was read into memory (2 GB) before it was checked.
+    for name in ["zeros.obj", "zeros.toml"] {
+        let path = dir.path().join(name);
+        std::fs::File::create(&path).unwrap().set_len(2 << 30).unwrap();
+        let start = std::time::Instant::now();
+        let (at, line, message) = parse_error(load(&path));
+        assert_eq!((at, line), (path, Some(1)), "{message}");
+        assert!(message.contains("NUL"), "{message}");
+        // Not a timing test: seconds would mean the whole file was read (2 GB of zeros).
+        assert!(start.elapsed().as_secs() < 20);
     }
 }
 

@@ -1,8 +1,9 @@
 //! Reading course files: OBJ meshes ([`obj`]), their MTL material libraries ([`mtl`]) and
 //! texture images ([`texture`]), each through [`file`], which reads only regular files and no
-//! more than a set number of bytes.
+//! more than a set number of bytes, the text files line by line ([`lines`]).
 
 pub mod file;
+pub mod lines;
 pub mod mtl;
 pub mod obj;
 pub mod texture;

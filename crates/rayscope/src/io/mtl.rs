@@ -10,6 +10,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::lines::Lines;
 use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::math::Vec3;
@@ -24,17 +25,25 @@ pub struct ObjMaterial {
 }
 
 /// Parse MTL text; `path` names it in errors and is where texture names are resolved from.
-/// Statements before the first `newmtl` belong to no material and are dropped.
+/// Statements before the first `newmtl` belong to no material and are dropped. (For the unit
+/// tests: files are read by [`read_mtl`].)
+#[cfg(test)]
 pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
+    read_mtl(Lines::Text(text), path)
+}
+
+/// Read the materials of an MTL file's lines; `path` names it in errors and is where texture
+/// names are resolved from. Statements before the first `newmtl` belong to no material and
+/// are dropped.
+pub fn read_mtl(lines: Lines, path: &Path) -> Result<Vec<ObjMaterial>> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut out: Vec<ObjMaterial> = Vec::new();
     // A nameless material that takes the statements before the first `newmtl`.
     let mut loose = ObjMaterial { material: Material::default(), texture: None };
-    for (i, line) in text.lines().enumerate() {
-        let line_no = i + 1;
+    lines.for_each(path, |line_no, line| {
         let err = |message: String| Error::parse(path, Some(line_no), message);
         let mut words = line.split_whitespace();
-        let Some(head) = words.next() else { continue };
+        let Some(head) = words.next() else { return Ok(()) };
         let args: Vec<&str> = words.collect();
         if head == "newmtl" {
             if args.is_empty() {
@@ -43,7 +52,7 @@ pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
             // The rest of the line, inner spaces kept, as `usemtl` names it.
             let name = line.trim_start()["newmtl".len()..].trim().to_string();
             out.push(ObjMaterial { material: Material { name, ..Material::default() }, texture: None });
-            continue;
+            return Ok(());
         }
         let current = out.last_mut().unwrap_or(&mut loose);
         let m = &mut current.material;
@@ -71,7 +80,8 @@ pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
             "map_Kd" => current.texture = Some(dir.join(texture_file(&args).map_err(err)?)),
             _ => {}
         }
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 

@@ -7,11 +7,16 @@
 
 use std::cell::RefCell;
 use std::collections::HashMap;
-use std::io::BufReader;
-use std::path::{Path, PathBuf};
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+#[cfg(test)]
+use std::path::PathBuf;
 
-use super::file::read_text;
-use super::mtl::{ObjMaterial, parse_mtl};
+use super::file::open;
+use super::lines::Lines;
+#[cfg(test)]
+use super::mtl::parse_mtl;
+use super::mtl::{ObjMaterial, read_mtl};
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3};
 
@@ -46,20 +51,40 @@ pub struct ObjFile {
 }
 
 /// Load an OBJ file and the MTL files it names (regular files, within
-/// [`super::file::max_file_bytes`]).
+/// [`super::file::max_file_bytes`]). The file is streamed twice, never held whole: once by
+/// the scan that checks it, then by `tobj`.
 pub fn load_obj(path: &Path) -> Result<ObjFile> {
-    let text = read_text(path)?;
+    let mut reader = open(path)?.buffered();
+    let scan = scan_obj(Lines::File(&mut reader), path)?;
+    let mut file = reader.into_inner();
+    file.rewind()?;
+    let limit = file.path().to_path_buf();
+    // tobj reads what the scan checked and no more, should the file have grown since.
+    let faces = BufReader::with_capacity(64 << 10, file.take(scan.bytes));
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    parse_obj(&text, path, |mtl| {
+    read_obj(faces, scan, &limit, |mtl| {
         let p = dir.join(mtl);
-        read_text(&p).map(|t| (p, t))
+        read_mtl(Lines::File(&mut open(&p)?.buffered()), &p)
     })
 }
 
 /// Parse OBJ text. `path` names it in errors; `read_mtl` returns the path and text of an MTL
-/// file named by `mtllib`. A file without faces is an error: it is not a mesh.
+/// file named by `mtllib`. A file without faces is an error: it is not a mesh. (For the unit
+/// tests: files are read by [`load_obj`].)
+#[cfg(test)]
 pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(PathBuf, String)>) -> Result<ObjFile> {
-    let scan = scan_obj(text, path)?;
+    let scan = scan_obj(Lines::Text(text), path)?;
+    read_obj(text.as_bytes(), scan, path, |name| read_mtl(name).and_then(|(p, t)| parse_mtl(&t, &p)))
+}
+
+/// Read the faces of an OBJ file that [`scan_obj`] checked (`scan`) with `tobj`, and its
+/// materials with `read_mtl` (the materials of one MTL file, by its name in `mtllib`).
+fn read_obj(
+    faces: impl BufRead,
+    scan: ObjScan,
+    path: &Path,
+    read_mtl: impl Fn(&str) -> Result<Vec<ObjMaterial>>,
+) -> Result<ObjFile> {
     // `tobj` reads the faces and calls back for each `mtllib` line, in file order; the
     // libraries are read here, by the names the scan split (tobj takes the whole rest of the
     // line for one name). Our materials are numbered globally and tobj's list stays empty,
@@ -72,7 +97,7 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
         let mut materials = materials.borrow_mut();
         let mut by_name = Vec::new();
         for name in names {
-            match read_mtl(&name).and_then(|(p, t)| parse_mtl(&t, &p)) {
+            match read_mtl(&name) {
                 Ok(read) => {
                     for m in read {
                         by_name.push((m.material.name.clone(), materials.len()));
@@ -88,29 +113,19 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
         Ok((Vec::new(), by_name.into_iter().collect()))
     };
     // tobj reads an `l` line of three or more vertices as a face: they are blanked (lines
-    // kept, for tobj's count of them) in a copy, made only for files that have them.
-    let without_polylines;
-    let text = if scan.polylines {
-        fn blank(l: &str) -> &str {
-            if l.split_whitespace().next() == Some("l") { "" } else { l }
-        }
-        without_polylines = text.lines().map(blank).collect::<Vec<_>>().join("\n");
-        &without_polylines
+    // kept, for tobj's count of them) by a filter, used only for files that have them.
+    let loaded = if scan.polylines {
+        load_faces(WithoutPolylines { inner: faces, line: Vec::new(), at: 0 }, path, load_library)
     } else {
-        text
+        load_faces(faces, path, load_library)
     };
-    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    // The scan admits only what tobj reads without error or panic; should a panic remain,
-    // it is an error in this file, not the end of the program.
-    let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &opts, load_library)
-    }))
-    .map_err(|_| Error::parse(path, None, "the OBJ reader failed on this file"))?;
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
     }
-    let (models, _) = loaded.map_err(|e| Error::parse(path, None, e.to_string()))?;
+    let (models, _) = loaded?.map_err(|e| Error::parse(path, None, e.to_string()))?;
     let mut out = ObjFile { materials: materials.into_inner(), warnings: scan.warnings, ..ObjFile::default() };
+    // Each model is dropped once unified: tobj's copy and ours of one group at a time, not of
+    // the whole file.
     for model in models {
         let mesh = &model.mesh;
         if mesh.indices.is_empty() {
@@ -135,6 +150,56 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
         return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
     }
     Ok(out)
+}
+
+/// Run `tobj` over `faces`, calling `load_library` for each `mtllib` line.
+fn load_faces(
+    mut faces: impl BufRead,
+    path: &Path,
+    load_library: impl Fn(&Path) -> tobj::MTLLoadResult,
+) -> Result<tobj::LoadResult> {
+    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    // The scan admits only what tobj reads without error or panic; should a panic remain,
+    // it is an error in this file, not the end of the program.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut faces, &opts, load_library)))
+        .map_err(|_| Error::parse(path, None, "the OBJ reader failed on this file"))
+}
+
+/// A reader of an OBJ file's lines in which `l` (polyline) lines are empty.
+struct WithoutPolylines<R> {
+    inner: R,
+    /// The current line, as given on.
+    line: Vec<u8>,
+    /// How much of `line` was consumed.
+    at: usize,
+}
+
+impl<R: BufRead> Read for WithoutPolylines<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.fill_buf()?.read(buf)?;
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for WithoutPolylines<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.at == self.line.len() {
+            self.line.clear();
+            self.at = 0;
+            self.inner.read_until(b'\n', &mut self.line)?;
+            let head = self.line.split(u8::is_ascii_whitespace).find(|w| !w.is_empty());
+            if head == Some(b"l") {
+                self.line.clear();
+                self.line.push(b'\n');
+            }
+        }
+        Ok(&self.line[self.at..])
+    }
+
+    fn consume(&mut self, amount: usize) {
+        self.at += amount;
+    }
 }
 
 /// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
@@ -208,6 +273,8 @@ struct ObjScan {
     warnings: Vec<String>,
     /// Whether there are `l` (polyline) lines, which tobj would read as faces.
     polylines: bool,
+    /// The bytes scanned: all of the file.
+    bytes: u64,
 }
 
 /// The statements of the OBJ format; a line starting with anything else is not OBJ.
@@ -258,19 +325,18 @@ const STATEMENTS: &[&str] = &[
 /// elements defined before them (OBJ's rule), faces have at least three corners, and every
 /// statement is OBJ's. Faces that give texture coordinate (or normal) indices in a file
 /// without any `vt` (`vn`) lines are accepted with a warning, as other readers do.
-fn scan_obj(text: &str, path: &Path) -> Result<ObjScan> {
-    let mut scan = ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false };
+fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
+    let mut scan = ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false, bytes: 0 };
     let mut counts = [0i64; 3]; // v, vt, vn
     // The first line whose face refers to texture coordinates or normals when none exist.
     let mut missing: [Option<usize>; 3] = [None; 3];
     let mut colored = false;
-    for (i, line) in text.lines().enumerate() {
-        let n = i + 1;
+    scan.bytes = lines.for_each(path, |n, line| {
         let err = |message: String| Error::parse(path, Some(n), message);
         let mut words = line.split_whitespace();
-        let Some(head) = words.next() else { continue };
+        let Some(head) = words.next() else { return Ok(()) };
         if head.starts_with('#') {
-            continue;
+            return Ok(());
         }
         let rest: Vec<&str> = words.collect();
         match head {
@@ -352,7 +418,8 @@ fn scan_obj(text: &str, path: &Path) -> Result<ObjScan> {
                 return Err(err(format!("not an OBJ statement: '{}' (is this a mesh file?)", shown.escape_debug())));
             }
         }
-    }
+        Ok(())
+    })?;
     for (k, what, element) in [(1, "texture coordinate", "vt"), (2, "normal", "vn")] {
         match missing[k] {
             // Elements defined after the faces that refer to them break OBJ's rule.
