@@ -134,6 +134,17 @@ fn a_large_file_of_zeros_fails_at_line_1_without_being_read() {
 }
 
 #[test]
+fn negative_colours_and_dissolves_outside_0_1_are_errors_at_their_line() {
+    for line in ["Kd -0.5", "Ks 1 -1 1", "Ka 0 0 -1", "Ke -1", "Tf 1 1 -0.1", "d 1.5", "d -0.1", "d -halo 2"] {
+        let dir = obj_with_mtl(&format!("newmtl red\nKd 0.5\n{line}\n"));
+        let (path, at, message) = parse_error(load(&dir.path().join("a.obj")));
+        assert_eq!((path, at), (dir.path().join("m.mtl"), Some(3)), "{line}: {message}");
+    }
+    let dir = obj_with_mtl("newmtl red\nKd 0 0 0\nd 0\n");
+    assert_eq!(material(&load(&dir.path().join("a.obj")).unwrap(), "red").transparency, 0.0);
+}
+
+#[test]
 fn files_that_are_no_mesh_are_errors_naming_the_line() {
     let passwd = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1::/usr/sbin:/usr/sbin/nologin\n";
     let toml = "# a scene\nname = \"x\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n";

@@ -7,6 +7,8 @@
 //! the format says) or three; two numbers, or the format's `spectral` and `xyz` forms, are
 //! errors. Texture statements take the format's options (`-o u [v [w]]`, `-s ...`, `-t ...`,
 //! `-mm base gain`, `-blendu on`, ...) before the file name, which is the rest of the line.
+//! Colours are not negative and a dissolve `d` lies in [0, 1] (as a scene file's
+//! `transparency`): other values are errors at their line, not clamped.
 
 use std::path::{Path, PathBuf};
 
@@ -64,9 +66,7 @@ pub fn read_mtl(lines: Lines, path: &Path) -> Result<Vec<ObjMaterial>> {
             }
             "Ns" => m.shininess = number(&args).map_err(err)?,
             // `d -halo 0.5`: the halo form's factor is read as plain dissolve.
-            "d" => {
-                m.transparency = number(args.strip_prefix(&["-halo"]).unwrap_or(&args)).map_err(err)?.clamp(0.0, 1.0)
-            }
+            "d" => m.transparency = dissolve(args.strip_prefix(&["-halo"]).unwrap_or(&args)).map_err(err)?,
             "Ni" => {
                 number(&args).map_err(err)?;
             }
@@ -85,14 +85,27 @@ pub fn read_mtl(lines: Lines, path: &Path) -> Result<Vec<ObjMaterial>> {
     Ok(out)
 }
 
-/// A colour statement's value: one number (grey) or three.
+/// A colour statement's value: one number (grey) or three, none negative.
 fn color(args: &[&str]) -> Result<Vec3, String> {
-    match args {
-        [v] => Ok(Vec3::splat(finite(v)?)),
-        [r, g, b] => Ok(Vec3::new(finite(r)?, finite(g)?, finite(b)?)),
-        ["spectral" | "xyz", ..] => Err(format!("'{}' colours are not supported; give r g b", args[0])),
-        _ => Err(format!("expected 1 number (grey) or 3 (r g b), found {}", args.len())),
+    let c = match args {
+        [v] => Vec3::splat(finite(v)?),
+        [r, g, b] => Vec3::new(finite(r)?, finite(g)?, finite(b)?),
+        ["spectral" | "xyz", ..] => return Err(format!("'{}' colours are not supported; give r g b", args[0])),
+        _ => return Err(format!("expected 1 number (grey) or 3 (r g b), found {}", args.len())),
+    };
+    if c.min_element() < 0.0 {
+        return Err(format!("a colour is not negative, found {}", args.join(" ")));
     }
+    Ok(c)
+}
+
+/// A dissolve (`d`): opacity, from 0 (transparent) to 1 (opaque).
+fn dissolve(args: &[&str]) -> Result<f32, String> {
+    let d = number(args)?;
+    if !(0.0..=1.0).contains(&d) {
+        return Err(format!("a dissolve lies in [0, 1], found {d}"));
+    }
+    Ok(d)
 }
 
 /// A statement's single number.
