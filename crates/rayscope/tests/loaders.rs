@@ -261,3 +261,17 @@ fn texture_options_are_skipped_and_the_file_name_is_last() {
         assert_eq!((path, at), (dir.path().join("m.mtl"), Some(2)), "{bad}: {message}");
     }
 }
+
+#[test]
+fn duplicate_faces_are_dropped_with_one_warning() {
+    // Faces 2 and 3 repeat face 1 (3 rotated); face 4 is face 1 reversed (the other side),
+    // face 5 another triangle: both kept. The second group's copy of face 1 is its own.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\ng a\nf 1 2 3\nf 1 2 3\nf 2 3 1\nf 1 3 2\nf 2 4 3\n\
+               g b\nf 1 2 3\n";
+    let dir = folder(&[("dup.obj", obj)]);
+    let scene = load(&dir.path().join("dup.obj")).unwrap();
+    assert_eq!(scene.triangle_count(), 4);
+    let warnings: Vec<_> = scene.warnings.iter().filter(|w| w.contains("duplicate")).collect();
+    assert_eq!(warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(warnings[0].contains("dup.obj") && warnings[0].contains("2 duplicate faces"), "{}", warnings[0]);
+}

@@ -6,7 +6,7 @@
 //! splits the `mtllib` lines into the names that [`super::mtl`] reads.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 #[cfg(test)]
@@ -124,6 +124,7 @@ fn read_obj(
     }
     let (models, _) = loaded?.map_err(|e| Error::parse(path, None, e.to_string()))?;
     let mut out = ObjFile { materials: materials.into_inner(), warnings: scan.warnings, ..ObjFile::default() };
+    let mut duplicates = 0;
     // Each model is dropped once unified: tobj's copy and ours of one group at a time, not of
     // the whole file.
     for model in models {
@@ -144,10 +145,18 @@ fn read_obj(
             }
             None => None,
         };
-        out.meshes.push(unify(&model.name, mesh, positions, material));
+        out.meshes.push(unify(&model.name, mesh, positions, material, &mut duplicates));
     }
     if out.meshes.is_empty() {
         return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
+    }
+    if duplicates > 0 {
+        out.warnings.push(format!(
+            "{}: {duplicates} duplicate face{} (the same three vertices, in the same order, as an earlier face of \
+             its group) dropped",
+            path.display(),
+            if duplicates == 1 { "" } else { "s" }
+        ));
     }
     Ok(out)
 }
@@ -204,7 +213,13 @@ impl<R: BufRead> BufRead for WithoutPolylines<R> {
 
 /// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
 /// (area-weighted, per position so texture seams stay smooth) when the group has none.
-fn unify(name: &str, mesh: &tobj::Mesh, positions: Vec<Vec3>, material: Option<usize>) -> ObjMesh {
+fn unify(
+    name: &str,
+    mesh: &tobj::Mesh,
+    positions: Vec<Vec3>,
+    material: Option<usize>,
+    duplicates: &mut usize,
+) -> ObjMesh {
     let has_n = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
     let has_t = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
     let file_normals: Vec<Vec3> = if has_n {
@@ -230,8 +245,30 @@ fn unify(name: &str, mesh: &tobj::Mesh, positions: Vec<Vec3>, material: Option<u
         });
         corners.push(idx);
     }
-    out.triangles = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    out.triangles = without_duplicates(&corners, duplicates);
     out
+}
+
+/// The triangles of `corners` (three a triangle) but those with the same three vertices in the
+/// same orientation (a rotation of the corners) as an earlier one, which are counted in
+/// `duplicates`. A duplicate never shows: it is hit exactly where its first is, and ties go to
+/// the lower slot; but rays test it all the same (10M copies of one triangle, every ray tested
+/// every copy).
+fn without_duplicates(corners: &[u32], duplicates: &mut usize) -> Vec<[u32; 3]> {
+    let mut seen = HashSet::with_capacity(corners.len() / 3);
+    let mut triangles = Vec::with_capacity(corners.len() / 3);
+    for c in corners.chunks_exact(3) {
+        let t = [c[0], c[1], c[2]];
+        // The rotation that starts at the smallest index: one key for the three.
+        let first = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+        if seen.insert([t[first], t[(first + 1) % 3], t[(first + 2) % 3]]) {
+            triangles.push(t);
+        } else {
+            *duplicates += 1;
+        }
+    }
+    triangles.shrink_to_fit();
+    triangles
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.
