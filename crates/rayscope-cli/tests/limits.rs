@@ -94,3 +94,19 @@ fn a_million_triangles_load_and_render_in_600_mb_of_address_space() {
     let out = stderr(&o);
     assert!(out.contains("999698 triangles"), "{out}");
 }
+
+#[test]
+fn a_mesh_that_cannot_fit_is_an_error_naming_its_size_not_an_abort() {
+    let dir = tempfile::tempdir().unwrap();
+    big_obj(&dir.path().join("grid.obj"), 707, false);
+    big_obj(&dir.path().join("same.obj"), 707, true);
+    for obj in ["grid.obj", "same.obj"] {
+        // Room for the program, not for the mesh (about 300 MB).
+        let o = render_within(dir.path(), obj, 150_000);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{obj}: {err}");
+        for needle in [obj, "999698 triangles", "MB of memory", "ulimit -v"] {
+            assert!(err.contains(needle), "{obj}: expected '{needle}' in {err}");
+        }
+    }
+}

@@ -45,6 +45,21 @@ pub enum Error {
         /// The limit in force.
         limit: u64,
     },
+    /// A mesh needs more memory than the process can allocate ([`crate::io`]'s estimate, or
+    /// an allocation that failed).
+    #[error(
+        "{path}: {triangles} triangles need about {} MB of memory to load and build the BVH, more than this \
+         process can allocate (an address-space limit, `ulimit -v`, or the machine's memory)",
+        bytes.div_ceil(1 << 20)
+    )]
+    OutOfMemory {
+        /// The mesh file.
+        path: PathBuf,
+        /// Its triangles.
+        triangles: u64,
+        /// The bytes it needs.
+        bytes: u64,
+    },
     /// A scene needs a course file that is not in the asset folder.
     #[error(
         "{path}: not found; scene '{scene}' needs the course's scene files. {searched}. Point --assets DIR \

@@ -1,9 +1,11 @@
 //! Reading course files: OBJ meshes ([`obj`]), their MTL material libraries ([`mtl`]) and
 //! texture images ([`texture`]), each through [`file`], which reads only regular files and no
-//! more than a set number of bytes, the text files line by line ([`lines`]).
+//! more than a set number of bytes, the text files line by line ([`lines`]). Before a mesh is
+//! read, the memory it will need is reserved once ([`memory`]).
 
 pub mod file;
 pub mod lines;
+pub mod memory;
 pub mod mtl;
 pub mod obj;
 pub mod texture;

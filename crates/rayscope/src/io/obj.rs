@@ -14,6 +14,7 @@ use std::path::PathBuf;
 
 use super::file::open;
 use super::lines::Lines;
+use super::memory::MeshSize;
 #[cfg(test)]
 use super::mtl::parse_mtl;
 use super::mtl::{ObjMaterial, read_mtl};
@@ -56,6 +57,7 @@ pub struct ObjFile {
 pub fn load_obj(path: &Path) -> Result<ObjFile> {
     let mut reader = open(path)?.buffered();
     let scan = scan_obj(Lines::File(&mut reader), path)?;
+    scan.size.reserve(path)?;
     let mut file = reader.into_inner();
     file.rewind()?;
     let limit = file.path().to_path_buf();
@@ -132,7 +134,9 @@ fn read_obj(
         if mesh.indices.is_empty() {
             continue;
         }
-        let positions: Vec<Vec3> = mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect();
+        let mut positions = scan.size.vec(path, mesh.positions.len() / 3)?;
+        positions.extend(mesh.positions.chunks_exact(3).map(Vec3::from_slice));
+        out.raw_positions.try_reserve(positions.len()).map_err(|_| scan.size.out_of_memory(path))?;
         out.raw_positions.extend_from_slice(&positions);
         let material = match mesh.material_id {
             Some(i) if i < out.materials.len() => Some(i),
@@ -145,7 +149,8 @@ fn read_obj(
             }
             None => None,
         };
-        out.meshes.push(unify(&model.name, mesh, positions, material, &mut duplicates));
+        let group = Group { name: &model.name, mesh, material };
+        out.meshes.push(unify(group, positions, &mut duplicates, scan.size, path)?);
     }
     if out.meshes.is_empty() {
         return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
@@ -211,15 +216,21 @@ impl<R: BufRead> BufRead for WithoutPolylines<R> {
     }
 }
 
-/// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
-/// (area-weighted, per position so texture seams stay smooth) when the group has none.
-fn unify(
-    name: &str,
-    mesh: &tobj::Mesh,
-    positions: Vec<Vec3>,
+/// A group of faces as `tobj` read it.
+struct Group<'a> {
+    name: &'a str,
+    mesh: &'a tobj::Mesh,
+    /// Index into [`ObjFile::materials`].
     material: Option<usize>,
-    duplicates: &mut usize,
-) -> ObjMesh {
+}
+
+/// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
+/// (area-weighted, per position so texture seams stay smooth) when the group has none, and
+/// drops duplicate faces (counted in `duplicates`). The large arrays are reserved fallibly:
+/// the file's `size` and `path` make the error of a mesh that does not fit.
+fn unify(group: Group, positions: Vec<Vec3>, duplicates: &mut usize, size: MeshSize, path: &Path) -> Result<ObjMesh> {
+    let Group { name, mesh, material } = group;
+    let oom = |_| size.out_of_memory(path);
     let has_n = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
     let has_t = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
     let file_normals: Vec<Vec3> = if has_n {
@@ -229,8 +240,12 @@ fn unify(
     };
     let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(Vec2::from_slice).collect();
     let mut out = ObjMesh { name: name.to_string(), material, ..ObjMesh::default() };
-    let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(positions.len());
-    let mut corners = Vec::with_capacity(mesh.indices.len());
+    // As many vertices as positions, unless normals or texture coordinates split some.
+    out.positions.try_reserve_exact(positions.len()).map_err(oom)?;
+    out.normals.try_reserve_exact(positions.len()).map_err(oom)?;
+    let mut map: HashMap<(u32, u32, u32), u32> = HashMap::new();
+    map.try_reserve(positions.len()).map_err(oom)?;
+    let mut corners = size.vec(path, mesh.indices.len())?;
     for (k, &pi) in mesh.indices.iter().enumerate() {
         let ni = if has_n { mesh.normal_indices[k] } else { pi };
         let ti = if has_t { mesh.texcoord_indices[k] } else { u32::MAX };
@@ -245,8 +260,11 @@ fn unify(
         });
         corners.push(idx);
     }
-    out.triangles = without_duplicates(&corners, duplicates);
-    out
+    drop(map);
+    out.positions.shrink_to_fit();
+    out.normals.shrink_to_fit();
+    out.triangles = without_duplicates(&corners, duplicates, size, path)?;
+    Ok(out)
 }
 
 /// The triangles of `corners` (three a triangle) but those with the same three vertices in the
@@ -254,9 +272,10 @@ fn unify(
 /// `duplicates`. A duplicate never shows: it is hit exactly where its first is, and ties go to
 /// the lower slot; but rays test it all the same (10M copies of one triangle, every ray tested
 /// every copy).
-fn without_duplicates(corners: &[u32], duplicates: &mut usize) -> Vec<[u32; 3]> {
-    let mut seen = HashSet::with_capacity(corners.len() / 3);
-    let mut triangles = Vec::with_capacity(corners.len() / 3);
+fn without_duplicates(corners: &[u32], duplicates: &mut usize, size: MeshSize, path: &Path) -> Result<Vec<[u32; 3]>> {
+    let mut seen = HashSet::new();
+    seen.try_reserve(corners.len() / 3).map_err(|_| size.out_of_memory(path))?;
+    let mut triangles = size.vec(path, corners.len() / 3)?;
     for c in corners.chunks_exact(3) {
         let t = [c[0], c[1], c[2]];
         // The rotation that starts at the smallest index: one key for the three.
@@ -268,7 +287,7 @@ fn without_duplicates(corners: &[u32], duplicates: &mut usize) -> Vec<[u32; 3]> 
         }
     }
     triangles.shrink_to_fit();
-    triangles
+    Ok(triangles)
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.
@@ -312,6 +331,8 @@ struct ObjScan {
     polylines: bool,
     /// The bytes scanned: all of the file.
     bytes: u64,
+    /// Its triangles and vertices.
+    size: MeshSize,
 }
 
 /// The statements of the OBJ format; a line starting with anything else is not OBJ.
@@ -363,7 +384,8 @@ const STATEMENTS: &[&str] = &[
 /// statement is OBJ's. Faces that give texture coordinate (or normal) indices in a file
 /// without any `vt` (`vn`) lines are accepted with a warning, as other readers do.
 fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
-    let mut scan = ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false, bytes: 0 };
+    let mut scan =
+        ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false, bytes: 0, size: MeshSize::default() };
     let mut counts = [0i64; 3]; // v, vt, vn
     // The first line whose face refers to texture coordinates or normals when none exist.
     let mut missing: [Option<usize>; 3] = [None; 3];
@@ -411,6 +433,9 @@ fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
                 if face && rest.len() < 3 {
                     return Err(err(format!("a face needs at least 3 vertices, found {}", rest.len())));
                 }
+                if face {
+                    scan.size.triangles += rest.len() as u64 - 2;
+                }
                 for corner in &rest {
                     let invalid = || err(format!("'{corner}' is not a valid face vertex"));
                     for (k, part) in corner.split('/').enumerate() {
@@ -457,6 +482,7 @@ fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
         }
         Ok(())
     })?;
+    scan.size.vertices = counts.iter().sum::<i64>() as u64;
     for (k, what, element) in [(1, "texture coordinate", "vt"), (2, "normal", "vn")] {
         match missing[k] {
             // Elements defined after the faces that refer to them break OBJ's rule.
