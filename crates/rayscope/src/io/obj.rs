@@ -6,13 +6,15 @@
 //! splits the `mtllib` lines into the names that [`super::mtl`] reads.
 
 use std::cell::RefCell;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 #[cfg(test)]
 use std::path::PathBuf;
 
+use super::duplicates::without_duplicates;
 use super::file::open;
+use super::index_hash::{IndexHash, pack};
 use super::lines::Lines;
 use super::memory::MeshSize;
 #[cfg(test)]
@@ -243,14 +245,14 @@ fn unify(group: Group, positions: Vec<Vec3>, duplicates: &mut usize, size: MeshS
     // As many vertices as positions, unless normals or texture coordinates split some.
     out.positions.try_reserve_exact(positions.len()).map_err(oom)?;
     out.normals.try_reserve_exact(positions.len()).map_err(oom)?;
-    let mut map: HashMap<(u32, u32, u32), u32> = HashMap::new();
+    let mut map: HashMap<u128, u32, IndexHash> = HashMap::with_hasher(IndexHash::new());
     map.try_reserve(positions.len()).map_err(oom)?;
     let mut corners = size.vec(path, mesh.indices.len())?;
     for (k, &pi) in mesh.indices.iter().enumerate() {
         let ni = if has_n { mesh.normal_indices[k] } else { pi };
         let ti = if has_t { mesh.texcoord_indices[k] } else { u32::MAX };
         let next = out.positions.len() as u32;
-        let idx = *map.entry((pi, ni, ti)).or_insert_with(|| {
+        let idx = *map.entry(pack([pi, ni, ti])).or_insert_with(|| {
             out.positions.push(positions[pi as usize]);
             out.normals.push(file_normals[ni as usize].normalize_or_zero());
             if has_t {
@@ -265,29 +267,6 @@ fn unify(group: Group, positions: Vec<Vec3>, duplicates: &mut usize, size: MeshS
     out.normals.shrink_to_fit();
     out.triangles = without_duplicates(&corners, duplicates, size, path)?;
     Ok(out)
-}
-
-/// The triangles of `corners` (three a triangle) but those with the same three vertices in the
-/// same orientation (a rotation of the corners) as an earlier one, which are counted in
-/// `duplicates`. A duplicate never shows: it is hit exactly where its first is, and ties go to
-/// the lower slot; but rays test it all the same (10M copies of one triangle, every ray tested
-/// every copy).
-fn without_duplicates(corners: &[u32], duplicates: &mut usize, size: MeshSize, path: &Path) -> Result<Vec<[u32; 3]>> {
-    let mut seen = HashSet::new();
-    seen.try_reserve(corners.len() / 3).map_err(|_| size.out_of_memory(path))?;
-    let mut triangles = size.vec(path, corners.len() / 3)?;
-    for c in corners.chunks_exact(3) {
-        let t = [c[0], c[1], c[2]];
-        // The rotation that starts at the smallest index: one key for the three.
-        let first = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
-        if seen.insert([t[first], t[(first + 1) % 3], t[(first + 2) % 3]]) {
-            triangles.push(t);
-        } else {
-            *duplicates += 1;
-        }
-    }
-    triangles.shrink_to_fit();
-    Ok(triangles)
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.
