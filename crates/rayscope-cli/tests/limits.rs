@@ -38,6 +38,12 @@ fn max_file_bytes_bounds_every_command_that_loads_a_scene() {
         let o = rayscope(dir.path(), &[command, &["--max-file-bytes", &size]].concat());
         assert!(o.status.success(), "{command:?}: {}", stderr(&o));
     }
+    // The largest limit there is: no overflow one byte past it.
+    let o = rayscope(
+        dir.path(),
+        &["render", "t.obj", "--width", "8", "-o", "t.png", "--max-file-bytes", &u64::MAX.to_string()],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
     for bad in ["0", "-1", "1GiB"] {
         let o = rayscope(dir.path(), &["render", "t.obj", "-o", "t.png", &format!("--max-file-bytes={bad}")]);
         assert!(!o.status.success() && stderr(&o).contains("--max-file-bytes"), "{bad}: {}", stderr(&o));

@@ -132,7 +132,7 @@ impl Bounded {
 impl Read for Bounded {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         // One byte past the limit may be read: it tells a file that grew since it was opened.
-        let room = (self.limit + 1).saturating_sub(self.read);
+        let room = self.limit.saturating_add(1).saturating_sub(self.read);
         let want = buf.len().min(usize::try_from(room).unwrap_or(usize::MAX));
         let n = self.file.read(&mut buf[..want])?;
         self.read += n as u64;
@@ -150,12 +150,20 @@ impl Seek for Bounded {
     }
 }
 
-/// The text of the regular file at `path`, at most [`max_file_bytes`] bytes. Bytes that are not UTF-8, and
-/// NUL bytes (which no text file holds, and all of a sparse file or `/dev/zero` are), are an
-/// error at their line; a NUL byte is found as the file is read, not after reading all of it.
+/// The error of a text file with a NUL byte: no text file holds one, and all of a sparse file
+/// or `/dev/zero` are.
+pub const NUL_BYTE: &str = "not a text file (a NUL byte)";
+
+/// The error of a text file with bytes that are not UTF-8.
+pub const NOT_UTF8: &str = "not a text file (bytes that are not UTF-8)";
+
+/// The text of the regular file at `path` (a scene file: small), at most [`max_file_bytes`]
+/// bytes. NUL bytes and bytes that are not UTF-8 are an error at their line; a NUL byte is
+/// found as the file is read, not after reading all of it.
 pub fn read_text(path: &Path) -> Result<String> {
     let mut file = open(path)?;
-    let mut bytes = Vec::with_capacity(file.size_hint as usize);
+    // Not the whole size at once: a sparse file of gigabytes fails at its first chunk.
+    let mut bytes = Vec::with_capacity(file.size_hint.min(1 << 20) as usize);
     let line_of = |bytes: &[u8]| bytes.iter().filter(|&&b| b == b'\n').count() + 1;
     let mut chunk = vec![0; 64 << 10];
     loop {
@@ -168,12 +176,12 @@ pub fn read_text(path: &Path) -> Result<String> {
         bytes.extend_from_slice(&chunk[..n]);
         if let Some(nul) = chunk[..n].iter().position(|&b| b == 0) {
             let at = bytes.len() - n + nul;
-            return Err(Error::parse(path, Some(line_of(&bytes[..at])), "not a text file (a NUL byte)"));
+            return Err(Error::parse(path, Some(line_of(&bytes[..at])), NUL_BYTE));
         }
     }
     String::from_utf8(bytes).map_err(|e| {
         let line = line_of(&e.as_bytes()[..e.utf8_error().valid_up_to()]);
-        Error::parse(path, Some(line), "not a text file (bytes that are not UTF-8)")
+        Error::parse(path, Some(line), NOT_UTF8)
     })
 }
 
@@ -235,6 +243,14 @@ mod tests {
         let mut bytes = Vec::new();
         at.read_to_end(&mut bytes).unwrap();
         assert_eq!(bytes.len(), 10);
+    }
+
+    #[test]
+    fn a_file_whose_size_says_nothing_is_bounded_while_read() {
+        // /proc files are regular files of size 0: only the reading can find them too large.
+        let mut status = open_within(Path::new("/proc/self/status"), 10).unwrap();
+        let err = status.read_to_end(&mut Vec::new()).unwrap_err();
+        assert!(matches!(status.error(err), Error::TooLarge { limit: 10, .. }));
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-use super::file::Bounded;
+use super::file::{Bounded, NOT_UTF8, NUL_BYTE};
 use crate::error::{Error, Result};
 
 /// Where the lines come from.
@@ -52,7 +52,7 @@ impl Lines<'_> {
                 let chunk = &available[..end.map_or(available.len(), |e| e + 1)];
                 // `contains` on bytes is a vectorised search: no cost worth measuring.
                 if chunk.contains(&0) {
-                    return Err(Error::parse(path, Some(number), NUL));
+                    return Err(Error::parse(path, Some(number), NUL_BYTE));
                 }
                 buf.extend_from_slice(chunk);
                 let n = chunk.len();
@@ -70,16 +70,11 @@ impl Lines<'_> {
     }
 }
 
-/// The error of a line with a NUL byte: no text file holds one, and all of a sparse file or
-/// `/dev/zero` are.
-const NUL: &str = "not a text file (a NUL byte)";
-
 /// One line's bytes (checked for NUL bytes as read) as text, without the line ending.
 fn text_line<'a>(bytes: &'a [u8], path: &Path, number: usize) -> Result<&'a str> {
     let bytes = match bytes.strip_suffix(b"\n") {
         Some(line) => line.strip_suffix(b"\r").unwrap_or(line),
         None => bytes,
     };
-    std::str::from_utf8(bytes)
-        .map_err(|_| Error::parse(path, Some(number), "not a text file (bytes that are not UTF-8)"))
+    std::str::from_utf8(bytes).map_err(|_| Error::parse(path, Some(number), NOT_UTF8))
 }
