@@ -77,6 +77,10 @@ fn open_within(path: &Path, limit: u64) -> Result<Bounded> {
     Ok(Bounded { file, path: path.to_path_buf(), limit, read: 0, size_hint: meta.len() })
 }
 
+/// The buffer of a file's reader: larger than std's 8 KiB default, for fewer system calls on
+/// a mesh of hundreds of MB.
+pub const BUFFER_BYTES: usize = 64 << 10;
+
 /// An opened regular file that fails to read past its byte limit (an [`std::io::Error`]
 /// that [`Bounded::error`] turns into [`Error::TooLarge`]), wherever the reader is.
 #[derive(Debug)]
@@ -103,11 +107,6 @@ impl std::fmt::Display for OverLimit {
 impl std::error::Error for OverLimit {}
 
 impl Bounded {
-    /// The path it was opened by.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The error for a failed read of this file: [`Error::TooLarge`] past the limit, else
     /// [`Error::Io`] naming the path.
     pub fn error(&self, e: std::io::Error) -> Error {
@@ -124,8 +123,7 @@ impl Bounded {
 
     /// A buffered reader over it.
     pub fn buffered(self) -> BufReader<Bounded> {
-        // Larger than std's 8 KiB default: fewer system calls on a mesh of hundreds of MB.
-        BufReader::with_capacity(64 << 10, self)
+        BufReader::with_capacity(BUFFER_BYTES, self)
     }
 }
 
@@ -165,7 +163,7 @@ pub fn read_text(path: &Path) -> Result<String> {
     // Not the whole size at once: a sparse file of gigabytes fails at its first chunk.
     let mut bytes = Vec::with_capacity(file.size_hint.min(1 << 20) as usize);
     let line_of = |bytes: &[u8]| bytes.iter().filter(|&&b| b == b'\n').count() + 1;
-    let mut chunk = vec![0; 64 << 10];
+    let mut chunk = vec![0; BUFFER_BYTES];
     loop {
         let n = match file.read(&mut chunk) {
             Ok(0) => break,

@@ -13,7 +13,7 @@ use std::path::Path;
 use std::path::PathBuf;
 
 use super::duplicates::without_duplicates;
-use super::file::open;
+use super::file::{BUFFER_BYTES, open};
 use super::index_hash::{IndexHash, pack};
 use super::lines::Lines;
 use super::memory::MeshSize;
@@ -62,11 +62,10 @@ pub fn load_obj(path: &Path) -> Result<ObjFile> {
     scan.size.reserve(path)?;
     let mut file = reader.into_inner();
     file.rewind()?;
-    let limit = file.path().to_path_buf();
     // tobj reads what the scan checked and no more, should the file have grown since.
-    let faces = BufReader::with_capacity(64 << 10, file.take(scan.bytes));
+    let faces = BufReader::with_capacity(BUFFER_BYTES, file.take(scan.bytes));
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    read_obj(faces, scan, &limit, |mtl| {
+    read_obj(faces, scan, path, |mtl| {
         let p = dir.join(mtl);
         read_mtl(Lines::File(&mut open(&p)?.buffered()), &p)
     })
