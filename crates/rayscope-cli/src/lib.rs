@@ -33,6 +33,10 @@ use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The largest file (mesh, MTL, texture, scene file) read, in bytes; else the
+    /// RAYSCOPE_MAX_FILE_BYTES environment variable, else 4 GiB.
+    #[arg(long, global = true, value_name = "BYTES", value_parser = clap::value_parser!(u64).range(1..))]
+    max_file_bytes: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -308,6 +312,8 @@ fn message(e: &anyhow::Error) -> String {
 
 fn run(cli: Cli) -> Result<ExitCode> {
     let done = |r: Result<()>| r.map(|()| ExitCode::SUCCESS);
+    // Process-wide, before any scene loads: the viewer loads scenes in this process too.
+    rayscope::scene::set_max_file_bytes(cli.max_file_bytes);
     match cli.command {
         Command::Render(args) => cmd_render(args),
         Command::Scenes { export } => done(cmd_scenes(export)),

@@ -36,14 +36,29 @@ pub enum Error {
     },
     /// A file is larger than the loaders read ([`crate::scene::max_file_bytes`]).
     #[error(
-        "{path}: larger than the limit of {limit} bytes; set RAYSCOPE_MAX_FILE_BYTES to a larger number of \
-         bytes to read it"
+        "{path}: larger than the limit of {limit} bytes; to read it, raise the limit with --max-file-bytes N or \
+         the RAYSCOPE_MAX_FILE_BYTES environment variable (a number of bytes)"
     )]
     TooLarge {
         /// The file.
         path: PathBuf,
         /// The limit in force.
         limit: u64,
+    },
+    /// A mesh needs more memory than the process can allocate ([`crate::io`]'s estimate, or
+    /// an allocation that failed).
+    #[error(
+        "{path}: {triangles} triangles need about {} MB of memory to load and build the BVH, more than this \
+         process can allocate (an address-space limit, `ulimit -v`, or the machine's memory)",
+        bytes.div_ceil(1 << 20)
+    )]
+    OutOfMemory {
+        /// The mesh file.
+        path: PathBuf,
+        /// Its triangles.
+        triangles: u64,
+        /// The bytes it needs.
+        bytes: u64,
     },
     /// A scene needs a course file that is not in the asset folder.
     #[error(

@@ -109,10 +109,39 @@ fn files_larger_than_the_limit_are_refused_before_reading() {
     match load(&path) {
         Err(e @ Error::TooLarge { .. }) => {
             assert!(e.to_string().contains("RAYSCOPE_MAX_FILE_BYTES"), "{e}");
+            assert!(e.to_string().contains("--max-file-bytes"), "{e}");
         }
         Err(e) => panic!("expected 'too large', got {e}"),
         Ok(_) => panic!("loaded"),
     }
+}
+
+#[test]
+fn a_large_file_of_zeros_fails_at_line_1_without_being_read() {
+    let dir = folder(&[]);
+    // Sparse, under the limit: streamed, the first line's NUL ends the reading, where the
+    // whole file was read into memory (2 GB) before it was checked.
+    for name in ["zeros.obj", "zeros.toml"] {
+        let path = dir.path().join(name);
+        std::fs::File::create(&path).unwrap().set_len(2 << 30).unwrap();
+        let start = std::time::Instant::now();
+        let (at, line, message) = parse_error(load(&path));
+        assert_eq!((at, line), (path, Some(1)), "{message}");
+        assert!(message.contains("NUL"), "{message}");
+        // Not a timing test: seconds would mean the whole file was read (2 GB of zeros).
+        assert!(start.elapsed().as_secs() < 20);
+    }
+}
+
+#[test]
+fn negative_colours_and_dissolves_outside_0_1_are_errors_at_their_line() {
+    for line in ["Kd -0.5", "Ks 1 -1 1", "Ka 0 0 -1", "Ke -1", "Tf 1 1 -0.1", "d 1.5", "d -0.1", "d -halo 2"] {
+        let dir = obj_with_mtl(&format!("newmtl red\nKd 0.5\n{line}\n"));
+        let (path, at, message) = parse_error(load(&dir.path().join("a.obj")));
+        assert_eq!((path, at), (dir.path().join("m.mtl"), Some(3)), "{line}: {message}");
+    }
+    let dir = obj_with_mtl("newmtl red\nKd 0 0 0\nd 0\n");
+    assert_eq!(material(&load(&dir.path().join("a.obj")).unwrap(), "red").transparency, 0.0);
 }
 
 #[test]
@@ -231,4 +260,18 @@ fn texture_options_are_skipped_and_the_file_name_is_last() {
         let (path, at, message) = parse_error(load(&dir.path().join("t.obj")));
         assert_eq!((path, at), (dir.path().join("m.mtl"), Some(2)), "{bad}: {message}");
     }
+}
+
+#[test]
+fn duplicate_faces_are_dropped_with_one_warning() {
+    // Faces 2 and 3 repeat face 1 (3 rotated); face 4 is face 1 reversed (the other side),
+    // face 5 another triangle: both kept. The second group's copy of face 1 is its own.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\ng a\nf 1 2 3\nf 1 2 3\nf 2 3 1\nf 1 3 2\nf 2 4 3\n\
+               g b\nf 1 2 3\n";
+    let dir = folder(&[("dup.obj", obj)]);
+    let scene = load(&dir.path().join("dup.obj")).unwrap();
+    assert_eq!(scene.triangle_count(), 4);
+    let warnings: Vec<_> = scene.warnings.iter().filter(|w| w.contains("duplicate")).collect();
+    assert_eq!(warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(warnings[0].contains("dup.obj") && warnings[0].contains("2 duplicate faces"), "{}", warnings[0]);
 }

@@ -117,7 +117,7 @@ impl Bvh {
         if prims.is_empty() {
             return Bvh::default();
         }
-        let mut parts = Nodes::with_capacity(2 * prims.len());
+        let mut parts = Nodes::for_prims(prims.len(), params);
         let b = Bounds::of(&prims);
         build_node(&mut prims, b, 0, 0, params, &mut parts);
         let mut nodes = parts.into_vec();
@@ -163,8 +163,12 @@ struct Nodes {
 }
 
 impl Nodes {
-    fn with_capacity(n: usize) -> Nodes {
-        Nodes { done: Vec::new(), done_len: 0, cur: Vec::with_capacity(n) }
+    /// Room for the subtree over `n` primitives: all its nodes (at most two per primitive)
+    /// where it is built on one thread; its root's where it is split between tasks, whose
+    /// subtrees come back in arrays of their own.
+    fn for_prims(n: usize, params: &BuildParams) -> Nodes {
+        let capacity = if n > params.parallel_threshold { 1 } else { 2 * n };
+        Nodes { done: Vec::new(), done_len: 0, cur: Vec::with_capacity(capacity) }
     }
 
     fn len(&self) -> usize {
@@ -178,8 +182,12 @@ impl Nodes {
     /// Move `other`'s nodes after these.
     fn append(&mut self, other: Nodes) {
         let cur = std::mem::take(&mut self.cur);
-        for part in std::iter::once(cur).chain(other.done).chain(std::iter::once(other.cur)) {
+        for mut part in std::iter::once(cur).chain(other.done).chain(std::iter::once(other.cur)) {
             if !part.is_empty() {
+                // The arrays were reserved for the most nodes a subtree can have (two per
+                // primitive); a kept array holds only what was used, or the reserves add up
+                // to gigabytes of address space on a 10M-triangle mesh.
+                part.shrink_to_fit();
                 self.done_len += part.len();
                 self.done.push(part);
             }
@@ -241,7 +249,7 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
 }
 
 fn subtree(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, params: &BuildParams) -> Nodes {
-    let mut out = Nodes::with_capacity(2 * prims.len());
+    let mut out = Nodes::for_prims(prims.len(), params);
     build_node(prims, b, offset, depth, params, &mut out);
     out
 }

@@ -7,9 +7,12 @@
 //! the format says) or three; two numbers, or the format's `spectral` and `xyz` forms, are
 //! errors. Texture statements take the format's options (`-o u [v [w]]`, `-s ...`, `-t ...`,
 //! `-mm base gain`, `-blendu on`, ...) before the file name, which is the rest of the line.
+//! Colours are not negative and a dissolve `d` lies in [0, 1] (as a scene file's
+//! `transparency`): other values are errors at their line, not clamped.
 
 use std::path::{Path, PathBuf};
 
+use super::lines::Lines;
 use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::math::Vec3;
@@ -24,17 +27,25 @@ pub struct ObjMaterial {
 }
 
 /// Parse MTL text; `path` names it in errors and is where texture names are resolved from.
-/// Statements before the first `newmtl` belong to no material and are dropped.
+/// Statements before the first `newmtl` belong to no material and are dropped. (For the unit
+/// tests: files are read by [`read_mtl`].)
+#[cfg(test)]
 pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
+    read_mtl(Lines::Text(text), path)
+}
+
+/// Read the materials of an MTL file's lines; `path` names it in errors and is where texture
+/// names are resolved from. Statements before the first `newmtl` belong to no material and
+/// are dropped.
+pub fn read_mtl(lines: Lines, path: &Path) -> Result<Vec<ObjMaterial>> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut out: Vec<ObjMaterial> = Vec::new();
     // A nameless material that takes the statements before the first `newmtl`.
     let mut loose = ObjMaterial { material: Material::default(), texture: None };
-    for (i, line) in text.lines().enumerate() {
-        let line_no = i + 1;
+    lines.for_each(path, |line_no, line| {
         let err = |message: String| Error::parse(path, Some(line_no), message);
         let mut words = line.split_whitespace();
-        let Some(head) = words.next() else { continue };
+        let Some(head) = words.next() else { return Ok(()) };
         let args: Vec<&str> = words.collect();
         if head == "newmtl" {
             if args.is_empty() {
@@ -43,7 +54,7 @@ pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
             // The rest of the line, inner spaces kept, as `usemtl` names it.
             let name = line.trim_start()["newmtl".len()..].trim().to_string();
             out.push(ObjMaterial { material: Material { name, ..Material::default() }, texture: None });
-            continue;
+            return Ok(());
         }
         let current = out.last_mut().unwrap_or(&mut loose);
         let m = &mut current.material;
@@ -55,9 +66,7 @@ pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
             }
             "Ns" => m.shininess = number(&args).map_err(err)?,
             // `d -halo 0.5`: the halo form's factor is read as plain dissolve.
-            "d" => {
-                m.transparency = number(args.strip_prefix(&["-halo"]).unwrap_or(&args)).map_err(err)?.clamp(0.0, 1.0)
-            }
+            "d" => m.transparency = dissolve(args.strip_prefix(&["-halo"]).unwrap_or(&args)).map_err(err)?,
             "Ni" => {
                 number(&args).map_err(err)?;
             }
@@ -71,18 +80,32 @@ pub fn parse_mtl(text: &str, path: &Path) -> Result<Vec<ObjMaterial>> {
             "map_Kd" => current.texture = Some(dir.join(texture_file(&args).map_err(err)?)),
             _ => {}
         }
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 
-/// A colour statement's value: one number (grey) or three.
+/// A colour statement's value: one number (grey) or three, none negative.
 fn color(args: &[&str]) -> Result<Vec3, String> {
-    match args {
-        [v] => Ok(Vec3::splat(finite(v)?)),
-        [r, g, b] => Ok(Vec3::new(finite(r)?, finite(g)?, finite(b)?)),
-        ["spectral" | "xyz", ..] => Err(format!("'{}' colours are not supported; give r g b", args[0])),
-        _ => Err(format!("expected 1 number (grey) or 3 (r g b), found {}", args.len())),
+    let c = match args {
+        [v] => Vec3::splat(finite(v)?),
+        [r, g, b] => Vec3::new(finite(r)?, finite(g)?, finite(b)?),
+        ["spectral" | "xyz", ..] => return Err(format!("'{}' colours are not supported; give r g b", args[0])),
+        _ => return Err(format!("expected 1 number (grey) or 3 (r g b), found {}", args.len())),
+    };
+    if c.min_element() < 0.0 {
+        return Err(format!("a colour is not negative, found {}", args.join(" ")));
     }
+    Ok(c)
+}
+
+/// A dissolve (`d`): opacity, from 0 (transparent) to 1 (opaque).
+fn dissolve(args: &[&str]) -> Result<f32, String> {
+    let d = number(args)?;
+    if !(0.0..=1.0).contains(&d) {
+        return Err(format!("a dissolve lies in [0, 1], found {d}"));
+    }
+    Ok(d)
 }
 
 /// A statement's single number.

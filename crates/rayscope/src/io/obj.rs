@@ -7,11 +7,19 @@
 
 use std::cell::RefCell;
 use std::collections::HashMap;
-use std::io::BufReader;
-use std::path::{Path, PathBuf};
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+#[cfg(test)]
+use std::path::PathBuf;
 
-use super::file::read_text;
-use super::mtl::{ObjMaterial, parse_mtl};
+use super::duplicates::without_duplicates;
+use super::file::{BUFFER_BYTES, open};
+use super::index_hash::{IndexHash, pack};
+use super::lines::Lines;
+use super::memory::MeshSize;
+#[cfg(test)]
+use super::mtl::parse_mtl;
+use super::mtl::{ObjMaterial, read_mtl};
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3};
 
@@ -46,20 +54,40 @@ pub struct ObjFile {
 }
 
 /// Load an OBJ file and the MTL files it names (regular files, within
-/// [`super::file::max_file_bytes`]).
+/// [`super::file::max_file_bytes`]). The file is streamed twice, never held whole: once by
+/// the scan that checks it, then by `tobj`.
 pub fn load_obj(path: &Path) -> Result<ObjFile> {
-    let text = read_text(path)?;
+    let mut reader = open(path)?.buffered();
+    let scan = scan_obj(Lines::File(&mut reader), path)?;
+    scan.size.reserve(path)?;
+    let mut file = reader.into_inner();
+    file.rewind()?;
+    // tobj reads what the scan checked and no more, should the file have grown since.
+    let faces = BufReader::with_capacity(BUFFER_BYTES, file.take(scan.bytes));
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    parse_obj(&text, path, |mtl| {
+    read_obj(faces, scan, path, |mtl| {
         let p = dir.join(mtl);
-        read_text(&p).map(|t| (p, t))
+        read_mtl(Lines::File(&mut open(&p)?.buffered()), &p)
     })
 }
 
 /// Parse OBJ text. `path` names it in errors; `read_mtl` returns the path and text of an MTL
-/// file named by `mtllib`. A file without faces is an error: it is not a mesh.
+/// file named by `mtllib`. A file without faces is an error: it is not a mesh. (For the unit
+/// tests: files are read by [`load_obj`].)
+#[cfg(test)]
 pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(PathBuf, String)>) -> Result<ObjFile> {
-    let scan = scan_obj(text, path)?;
+    let scan = scan_obj(Lines::Text(text), path)?;
+    read_obj(text.as_bytes(), scan, path, |name| read_mtl(name).and_then(|(p, t)| parse_mtl(&t, &p)))
+}
+
+/// Read the faces of an OBJ file that [`scan_obj`] checked (`scan`) with `tobj`, and its
+/// materials with `read_mtl` (the materials of one MTL file, by its name in `mtllib`).
+fn read_obj(
+    faces: impl BufRead,
+    scan: ObjScan,
+    path: &Path,
+    read_mtl: impl Fn(&str) -> Result<Vec<ObjMaterial>>,
+) -> Result<ObjFile> {
     // `tobj` reads the faces and calls back for each `mtllib` line, in file order; the
     // libraries are read here, by the names the scan split (tobj takes the whole rest of the
     // line for one name). Our materials are numbered globally and tobj's list stays empty,
@@ -72,7 +100,7 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
         let mut materials = materials.borrow_mut();
         let mut by_name = Vec::new();
         for name in names {
-            match read_mtl(&name).and_then(|(p, t)| parse_mtl(&t, &p)) {
+            match read_mtl(&name) {
                 Ok(read) => {
                     for m in read {
                         by_name.push((m.material.name.clone(), materials.len()));
@@ -88,35 +116,28 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
         Ok((Vec::new(), by_name.into_iter().collect()))
     };
     // tobj reads an `l` line of three or more vertices as a face: they are blanked (lines
-    // kept, for tobj's count of them) in a copy, made only for files that have them.
-    let without_polylines;
-    let text = if scan.polylines {
-        fn blank(l: &str) -> &str {
-            if l.split_whitespace().next() == Some("l") { "" } else { l }
-        }
-        without_polylines = text.lines().map(blank).collect::<Vec<_>>().join("\n");
-        &without_polylines
+    // kept, for tobj's count of them) by a filter, used only for files that have them.
+    let loaded = if scan.polylines {
+        load_faces(WithoutPolylines { inner: faces, line: Vec::new(), at: 0 }, path, load_library)
     } else {
-        text
+        load_faces(faces, path, load_library)
     };
-    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    // The scan admits only what tobj reads without error or panic; should a panic remain,
-    // it is an error in this file, not the end of the program.
-    let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        tobj::load_obj_buf(&mut BufReader::new(text.as_bytes()), &opts, load_library)
-    }))
-    .map_err(|_| Error::parse(path, None, "the OBJ reader failed on this file"))?;
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
     }
-    let (models, _) = loaded.map_err(|e| Error::parse(path, None, e.to_string()))?;
+    let (models, _) = loaded?.map_err(|e| Error::parse(path, None, e.to_string()))?;
     let mut out = ObjFile { materials: materials.into_inner(), warnings: scan.warnings, ..ObjFile::default() };
+    let mut duplicates = 0;
+    // Each model is dropped once unified: tobj's copy and ours of one group at a time, not of
+    // the whole file.
     for model in models {
         let mesh = &model.mesh;
         if mesh.indices.is_empty() {
             continue;
         }
-        let positions: Vec<Vec3> = mesh.positions.chunks_exact(3).map(Vec3::from_slice).collect();
+        let mut positions = scan.size.vec(path, mesh.positions.len() / 3)?;
+        positions.extend(mesh.positions.chunks_exact(3).map(Vec3::from_slice));
+        out.raw_positions.try_reserve(positions.len()).map_err(|_| scan.size.out_of_memory(path))?;
         out.raw_positions.extend_from_slice(&positions);
         let material = match mesh.material_id {
             Some(i) if i < out.materials.len() => Some(i),
@@ -129,17 +150,88 @@ pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(Pat
             }
             None => None,
         };
-        out.meshes.push(unify(&model.name, mesh, positions, material));
+        let group = Group { name: &model.name, mesh, material };
+        out.meshes.push(unify(group, positions, &mut duplicates, scan.size, path)?);
     }
     if out.meshes.is_empty() {
         return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
     }
+    if duplicates > 0 {
+        out.warnings.push(format!(
+            "{}: {duplicates} duplicate face{} (the same three vertices, in the same order, as an earlier face of \
+             its group) dropped",
+            path.display(),
+            if duplicates == 1 { "" } else { "s" }
+        ));
+    }
     Ok(out)
 }
 
+/// Run `tobj` over `faces`, calling `load_library` for each `mtllib` line.
+fn load_faces(
+    mut faces: impl BufRead,
+    path: &Path,
+    load_library: impl Fn(&Path) -> tobj::MTLLoadResult,
+) -> Result<tobj::LoadResult> {
+    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    // The scan admits only what tobj reads without error or panic; should a panic remain,
+    // it is an error in this file, not the end of the program.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut faces, &opts, load_library)))
+        .map_err(|_| Error::parse(path, None, "the OBJ reader failed on this file"))
+}
+
+/// A reader of an OBJ file's lines in which `l` (polyline) lines are empty.
+struct WithoutPolylines<R> {
+    inner: R,
+    /// The current line, as given on.
+    line: Vec<u8>,
+    /// How much of `line` was consumed.
+    at: usize,
+}
+
+impl<R: BufRead> Read for WithoutPolylines<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.fill_buf()?.read(buf)?;
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for WithoutPolylines<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.at == self.line.len() {
+            self.line.clear();
+            self.at = 0;
+            self.inner.read_until(b'\n', &mut self.line)?;
+            let head = self.line.split(u8::is_ascii_whitespace).find(|w| !w.is_empty());
+            if head == Some(b"l") {
+                self.line.clear();
+                self.line.push(b'\n');
+            }
+        }
+        Ok(&self.line[self.at..])
+    }
+
+    fn consume(&mut self, amount: usize) {
+        self.at += amount;
+    }
+}
+
+/// A group of faces as `tobj` read it.
+struct Group<'a> {
+    name: &'a str,
+    mesh: &'a tobj::Mesh,
+    /// Index into [`ObjFile::materials`].
+    material: Option<usize>,
+}
+
 /// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
-/// (area-weighted, per position so texture seams stay smooth) when the group has none.
-fn unify(name: &str, mesh: &tobj::Mesh, positions: Vec<Vec3>, material: Option<usize>) -> ObjMesh {
+/// (area-weighted, per position so texture seams stay smooth) when the group has none, and
+/// drops duplicate faces (counted in `duplicates`). The large arrays are reserved fallibly:
+/// the file's `size` and `path` make the error of a mesh that does not fit.
+fn unify(group: Group, positions: Vec<Vec3>, duplicates: &mut usize, size: MeshSize, path: &Path) -> Result<ObjMesh> {
+    let Group { name, mesh, material } = group;
+    let oom = |_| size.out_of_memory(path);
     let has_n = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
     let has_t = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
     let file_normals: Vec<Vec3> = if has_n {
@@ -149,13 +241,17 @@ fn unify(name: &str, mesh: &tobj::Mesh, positions: Vec<Vec3>, material: Option<u
     };
     let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(Vec2::from_slice).collect();
     let mut out = ObjMesh { name: name.to_string(), material, ..ObjMesh::default() };
-    let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(positions.len());
-    let mut corners = Vec::with_capacity(mesh.indices.len());
+    // As many vertices as positions, unless normals or texture coordinates split some.
+    out.positions.try_reserve_exact(positions.len()).map_err(oom)?;
+    out.normals.try_reserve_exact(positions.len()).map_err(oom)?;
+    let mut map: HashMap<u128, u32, IndexHash> = HashMap::with_hasher(IndexHash::new());
+    map.try_reserve(positions.len()).map_err(oom)?;
+    let mut corners = size.vec(path, mesh.indices.len())?;
     for (k, &pi) in mesh.indices.iter().enumerate() {
         let ni = if has_n { mesh.normal_indices[k] } else { pi };
         let ti = if has_t { mesh.texcoord_indices[k] } else { u32::MAX };
         let next = out.positions.len() as u32;
-        let idx = *map.entry((pi, ni, ti)).or_insert_with(|| {
+        let idx = *map.entry(pack([pi, ni, ti])).or_insert_with(|| {
             out.positions.push(positions[pi as usize]);
             out.normals.push(file_normals[ni as usize].normalize_or_zero());
             if has_t {
@@ -165,8 +261,11 @@ fn unify(name: &str, mesh: &tobj::Mesh, positions: Vec<Vec3>, material: Option<u
         });
         corners.push(idx);
     }
-    out.triangles = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    out
+    drop(map);
+    out.positions.shrink_to_fit();
+    out.normals.shrink_to_fit();
+    out.triangles = without_duplicates(&corners, duplicates, size, path)?;
+    Ok(out)
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.
@@ -208,6 +307,10 @@ struct ObjScan {
     warnings: Vec<String>,
     /// Whether there are `l` (polyline) lines, which tobj would read as faces.
     polylines: bool,
+    /// The bytes scanned: all of the file.
+    bytes: u64,
+    /// Its triangles and vertices.
+    size: MeshSize,
 }
 
 /// The statements of the OBJ format; a line starting with anything else is not OBJ.
@@ -258,19 +361,19 @@ const STATEMENTS: &[&str] = &[
 /// elements defined before them (OBJ's rule), faces have at least three corners, and every
 /// statement is OBJ's. Faces that give texture coordinate (or normal) indices in a file
 /// without any `vt` (`vn`) lines are accepted with a warning, as other readers do.
-fn scan_obj(text: &str, path: &Path) -> Result<ObjScan> {
-    let mut scan = ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false };
+fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
+    let mut scan =
+        ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false, bytes: 0, size: MeshSize::default() };
     let mut counts = [0i64; 3]; // v, vt, vn
     // The first line whose face refers to texture coordinates or normals when none exist.
     let mut missing: [Option<usize>; 3] = [None; 3];
     let mut colored = false;
-    for (i, line) in text.lines().enumerate() {
-        let n = i + 1;
+    scan.bytes = lines.for_each(path, |n, line| {
         let err = |message: String| Error::parse(path, Some(n), message);
         let mut words = line.split_whitespace();
-        let Some(head) = words.next() else { continue };
+        let Some(head) = words.next() else { return Ok(()) };
         if head.starts_with('#') {
-            continue;
+            return Ok(());
         }
         let rest: Vec<&str> = words.collect();
         match head {
@@ -307,6 +410,9 @@ fn scan_obj(text: &str, path: &Path) -> Result<ObjScan> {
                 scan.polylines |= !face;
                 if face && rest.len() < 3 {
                     return Err(err(format!("a face needs at least 3 vertices, found {}", rest.len())));
+                }
+                if face {
+                    scan.size.triangles += rest.len() as u64 - 2;
                 }
                 for corner in &rest {
                     let invalid = || err(format!("'{corner}' is not a valid face vertex"));
@@ -352,7 +458,9 @@ fn scan_obj(text: &str, path: &Path) -> Result<ObjScan> {
                 return Err(err(format!("not an OBJ statement: '{}' (is this a mesh file?)", shown.escape_debug())));
             }
         }
-    }
+        Ok(())
+    })?;
+    scan.size.vertices = counts.iter().sum::<i64>() as u64;
     for (k, what, element) in [(1, "texture coordinate", "vt"), (2, "normal", "vn")] {
         match missing[k] {
             // Elements defined after the faces that refer to them break OBJ's rule.
