@@ -94,7 +94,7 @@ fn color(args: &[&str]) -> Result<Vec3, String> {
         _ => return Err(format!("expected 1 number (grey) or 3 (r g b), found {}", args.len())),
     };
     if c.min_element() < 0.0 {
-        return Err(format!("a colour is not negative, found {}", args.join(" ")));
+        return Err(format!("a colour cannot be negative, found {}", args.join(" ")));
     }
     Ok(c)
 }
