@@ -230,7 +230,7 @@ fn degenerate_inputs() {
         shapes
             .into_iter()
             .map(|s| match s {
-                Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * k, (t.v0 + t.e1) * k, (t.v0 + t.e2) * k)),
+                Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * k, t.v1 * k, t.v2 * k)),
                 other => other,
             })
             .collect()
@@ -627,7 +627,7 @@ fn ray(scale: f32, shapes: Vec<Shape>) -> impl Strategy<Value = Ray> {
     (point(2.0 * scale), point(1.0), aim, interval).prop_map(move |(origin, dir, (aim, at, u, v), t_max)| {
         let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
         let dir = match shapes.get(at.index(shapes.len().max(1))) {
-            Some(Shape::Triangle(t)) if aim => (t.v0 + u * t.e1 + v * t.e2 - origin) * (1.0 / scale),
+            Some(Shape::Triangle(t)) if aim => (t.v0 + u * (t.v1 - t.v0) + v * (t.v2 - t.v0) - origin) * (1.0 / scale),
             _ => dir,
         };
         let mut ray = Ray::new(origin, dir);

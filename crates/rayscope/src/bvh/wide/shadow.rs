@@ -135,7 +135,7 @@ impl Frustum {
         }
         // The triangle's own plane separates when the apex and the far corners all lie
         // strictly on one side of it (the pyramid is their convex hull).
-        let n = t.e1.cross(t.e2);
+        let n = t.normal();
         let slack = self.tol * n.length();
         let side = |p: Vec3A| n.dot(p - a);
         let apex = side(Vec3A::ZERO);
