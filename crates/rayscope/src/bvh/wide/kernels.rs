@@ -40,24 +40,16 @@ use crate::math::Vec3A;
 use crate::ray::Ray;
 
 /// The ray's data for the packed triangle test, computed once per ray: its watertight set-up
-/// ([`TriRay`]; the AVX2 test broadcasts from it) and that splatted across four lanes.
+/// ([`TriRay`]), which each kernel broadcasts from (the portable one's splats are hoisted out
+/// of its loops; the AVX2 one's `vbroadcastss` reads memory).
 pub struct RayLanes {
     pub(super) tri: TriRay,
-    ox: f32x4,
-    oy: f32x4,
-    oz: f32x4,
-    sx: f32x4,
-    sy: f32x4,
-    sz: f32x4,
 }
 
 impl RayLanes {
     #[inline(always)]
     pub(super) fn new(ray: &Ray) -> RayLanes {
-        let tri = TriRay::new(ray);
-        let [ox, oy, oz] = tri.origin.map(f32x4::splat);
-        let (sx, sy, sz) = (f32x4::splat(tri.sx), f32x4::splat(tri.sy), f32x4::splat(tri.sz));
-        RayLanes { tri, ox, oy, oz, sx, sy, sz }
+        RayLanes { tri: TriRay::new(ray) }
     }
 }
 
@@ -297,10 +289,12 @@ impl Tri4 {
     #[inline(always)]
     pub(super) fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
         let [kx, ky, kz] = r.tri.axes;
+        let [ox, oy, oz] = r.tri.origin.map(f32x4::splat);
+        let (sx, sy, sz) = (f32x4::splat(r.tri.sx), f32x4::splat(r.tri.sy), f32x4::splat(r.tri.sz));
         let l = |a: &[f32; 4]| f32x4::new(*a);
         let sheared = |v: &[[f32; 4]; 3]| {
-            let z = l(&v[kz]) - r.oz;
-            (l(&v[kx]) - r.ox + r.sx * z, l(&v[ky]) - r.oy + r.sy * z, z)
+            let z = l(&v[kz]) - oz;
+            (l(&v[kx]) - ox + sx * z, l(&v[ky]) - oy + sy * z, z)
         };
         let (x0, y0, z0) = sheared(&self.v0);
         let (x1, y1, z1) = sheared(&self.v1);
@@ -314,16 +308,16 @@ impl Tri4 {
             edges_f64_lanes(flat, a([x0, x1, x2]), a([y0, y1, y2]), &mut e);
             [e0, e1, e2] = e.map(f32x4::new);
         }
-        let neg = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
-        let pos = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
+        // No mixed signs (NaN lanes, whichever way `fast_min` takes them, fail `ok_det`).
+        let same_side = e0.fast_min(e1).fast_min(e2).simd_ge(zero) | e0.fast_max(e1).fast_max(e2).simd_le(zero);
         let det = e0 + e1 + e2;
-        let t_scaled = e0 * (z0 * r.sz) + e1 * (z1 * r.sz) + e2 * (z2 * r.sz);
+        let t_scaled = (e0 * z0 + e1 * z1 + e2 * z2) * sz;
         let inv_det = f32x4::ONE / det;
         let t = t_scaled * inv_det;
         // det != 0 and finite: |det| in (0, inf).
         let ok_det = det.abs().simd_gt(zero) & det.abs().simd_lt(f32x4::splat(f32::INFINITY));
         let ok_t = t.simd_ge(f32x4::splat(t_min)) & t.simd_le(f32x4::splat(t_max));
-        let mask = (ok_det & ok_t).to_bitmask() & !(neg & pos).to_bitmask();
+        let mask = (same_side & ok_det & ok_t).to_bitmask();
         (mask, t.to_array(), (e1 * inv_det).to_array(), (e2 * inv_det).to_array())
     }
 }
