@@ -390,12 +390,14 @@ fn validate_catches_broken_trees() {
 
 /// Shadow rays grouped per shading point (`bvh::shadow`) get the answers of traversing the
 /// tree one ray at a time: random points, lights and segments in random soups and in the
-/// Cornell box, with hits and misses both frequent.
+/// Cornell box, with hits and misses both frequent, on the detected SIMD level and the
+/// portable one (the groups' triangle test is dispatched on it).
 #[test]
 fn shadow_groups_match_one_ray_at_a_time() {
     let mut rng = Rng(21);
     let (mut groups, mut blocked, mut open, mut gave_up) = (0, 0, 0, 0);
     let mut check_groups = |wide: &WideTree, prims: &dyn Primitives, rng: &mut Rng, scale: f32| {
+        let portable = wide.clone().portable();
         for _ in 0..300 {
             let apex = rng.vec3(-scale, scale);
             let side = rng.dir();
@@ -406,6 +408,7 @@ fn shadow_groups_match_one_ray_at_a_time() {
                 continue;
             };
             groups += 1;
+            let occ_portable = portable.occluders(apex, side, center, radius).expect("the same list");
             for _ in 0..40 {
                 // A point of the light's ball, seen from the apex on the side of `side`.
                 let target = center + rng.dir() * radius * rng.f32().sqrt();
@@ -416,6 +419,7 @@ fn shadow_groups_match_one_ray_at_a_time() {
                 let ray = Ray::spawn_to(apex, Vec3A::ZERO, target, 0.0);
                 let want = wide.occluded(&ray, prims);
                 assert_eq!(wide.occluded_among(&ray, prims, &occ), want, "{ray:?} to {target:?}");
+                assert_eq!(portable.occluded_among(&ray, prims, &occ_portable), want, "portable, {ray:?}");
                 if want { blocked += 1 } else { open += 1 }
             }
         }

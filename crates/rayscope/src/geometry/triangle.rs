@@ -15,9 +15,15 @@
 //!
 //! Every path of the wide trees (`bvh/wide`: the portable and AVX2 kernels, single rays,
 //! packets, shadow groups) does these operations lane for lane, in the order written in
-//! [`Triangle::intersect_prepared`], so all give the same bits. Products and sums are never
-//! fused: the baseline build has no FMA instruction, and the same bits everywhere matter more
-//! than the last rounding.
+//! [`Triangle::intersect_prepared`], so all give the same bits. The shear and `t`'s sum of
+//! products are fused multiply-adds (one rounding, one instruction where the code is compiled
+//! for FMA: the wide trees' AVX2 and AVX-512 traversals and the shadow groups dispatched to
+//! them; elsewhere `f32::mul_add` is libm's exact `fmaf`, slower, never different). The edge
+//! functions are not: `round(a * b) - round(c * d)` has the exact sign or is 0 (then the
+//! double-precision fallback decides), since rounding is monotonic, and it is exactly minus
+//! `round(c * d) - round(a * b)`, so the two triangles of a shared edge always agree on its
+//! side. A fused `a * b - round(c * d)` can get the sign wrong (when `c * d` rounds past
+//! `a * b`) and the neighbour, fused the other way, wrong too: the ray would slip between.
 
 use super::{Aabb, PrimHit};
 use crate::math::Vec3A;
@@ -143,22 +149,29 @@ impl Triangle {
     #[inline(always)]
     pub fn intersect_prepared(&self, r: &TriRay, t_min: f32, t_max: f32) -> Option<PrimHit> {
         let [kx, ky, kz] = r.axes;
-        // Translate, permute and shear each vertex (z is scaled later, on the sum).
+        // Translate, permute and shear each vertex (z is scaled later, on the sum). Fused: the
+        // result depends on the vertex and the ray alone, as watertightness needs.
         let sheared = |p: Vec3A| {
             let z = p[kz] - r.origin[2];
-            (p[kx] - r.origin[0] + r.sx * z, p[ky] - r.origin[1] + r.sy * z, z)
+            (r.sx.mul_add(z, p[kx] - r.origin[0]), r.sy.mul_add(z, p[ky] - r.origin[1]), z)
         };
         let (x0, y0, z0) = sheared(self.v0);
         let (x1, y1, z1) = sheared(self.v1);
         let (x2, y2, z2) = sheared(self.v2);
+        // Not fused (see the module documentation).
         let mut e = [x1 * y2 - y1 * x2, x2 * y0 - y2 * x0, x0 * y1 - y0 * x1];
-        if e[0] == 0.0 || e[1] == 0.0 || e[2] == 0.0 {
+        let (mut lo, mut hi) = (e[0].min(e[1]).min(e[2]), e[0].max(e[1]).max(e[2]));
+        // An edge function of exactly 0 is the least or the greatest one, unless another is
+        // negative and a third positive: mixed signs, which the exact ones keep (a non-zero
+        // rounded one has the exact sign), so such a ray is rejected either way.
+        if lo == 0.0 || hi == 0.0 {
             e = edges_f64([x0, x1, x2], [y0, y1, y2]);
+            (lo, hi) = (e[0].min(e[1]).min(e[2]), e[0].max(e[1]).max(e[2]));
         }
         let [e0, e1, e2] = e;
         // Mixed signs: the ray passes outside one edge. Zero counts as either side (inclusive).
         // (A NaN edge function makes `det` NaN, rejected below, whatever these say.)
-        if !(e0.min(e1).min(e2) >= 0.0 || e0.max(e1).max(e2) <= 0.0) {
+        if !(lo >= 0.0 || hi <= 0.0) {
             return None;
         }
         let det = e0 + e1 + e2;
@@ -167,7 +180,7 @@ impl Triangle {
             return None;
         }
         // z is scaled once, on the sum, where pbrt-v4 scales each vertex's: two products fewer.
-        let t_scaled = (e0 * z0 + e1 * z1 + e2 * z2) * r.sz;
+        let t_scaled = e2.mul_add(z2, e1.mul_add(z1, e0 * z0)) * r.sz;
         // `t` itself is compared, not `t_scaled` with `t_max * det` as in pbrt-v4: the rounded
         // quotient could otherwise land just past `t_max`. The packed kernels divide anyway.
         let inv_det = 1.0 / det;

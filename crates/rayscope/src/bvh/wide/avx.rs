@@ -15,6 +15,7 @@ use crate::ray::Ray;
 /// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step. Made only
 /// with an [`Avx2`] token.
 pub struct Avx2Node8 {
+    cpu: Avx2,
     inv: [std::arch::x86_64::__m256; 3],
     /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
     oinv_near: [std::arch::x86_64::__m256; 3],
@@ -29,7 +30,7 @@ impl NodeTest<8> for Avx2Node8 {
     // Not `target_feature` functions themselves: those would stay out-of-line calls in the
     // traversal compiled for AVX2, where these inline.
     #[inline(always)]
-    fn new(_: Avx2, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
+    fn new(cpu: Avx2, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
         use std::arch::x86_64::_mm256_set1_ps;
         let (near, far) = planes(inv);
         let o = SlabOrigin::new(ray.origin, inv, reach);
@@ -40,7 +41,7 @@ impl NodeTest<8> for Avx2Node8 {
             };
         }
         // SAFETY: the token proves that the CPU has AVX2.
-        unsafe { Avx2Node8 { inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
+        unsafe { Avx2Node8 { cpu, inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
     }
 
     #[inline(always)]
@@ -82,100 +83,94 @@ impl NodeTest<8> for Avx2Node8 {
         }
     }
 
-    /// The watertight test on eight triangles in 256-bit registers: the operations of
-    /// `Tri4::intersect`, lane for lane, so the hits are the same bits.
     #[inline(always)]
     fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        use std::arch::x86_64::*;
-        // SAFETY: the CPU has AVX2 (`self` was made with its token); the loads read 16 bytes from rows of 4 floats,
-        // the stores write eight floats into arrays of eight.
-        unsafe {
-            // Macros, not closures: a closure is a function of its own, compiled without the
-            // caller's AVX2, and its intrinsics then stay calls (measured: a third more
-            // instructions per render).
-            macro_rules! load {
-                ($x:expr, $y:expr) => {
-                    _mm256_insertf128_ps::<1>(
-                        _mm256_castps128_ps256(_mm_loadu_ps($x.as_ptr())),
-                        _mm_loadu_ps($y.as_ptr()),
-                    )
-                };
-            }
-            macro_rules! store {
-                ($x:expr) => {{
-                    let mut out = [0.0f32; 8];
-                    _mm256_storeu_ps(out.as_mut_ptr(), $x);
-                    out
-                }};
-            }
-            let tri = &r.tri;
-            let [kx, ky, kz] = tri.axes;
-            let (ox, oy, oz) =
-                (_mm256_set1_ps(tri.origin[0]), _mm256_set1_ps(tri.origin[1]), _mm256_set1_ps(tri.origin[2]));
-            let (sx, sy, sz) = (_mm256_set1_ps(tri.sx), _mm256_set1_ps(tri.sy), _mm256_set1_ps(tri.sz));
-            // A vertex row of both blocks, translated, permuted (a choice of rows) and sheared.
-            macro_rules! sheared {
-                ($v:ident) => {{
-                    let z = _mm256_sub_ps(load!(a.$v[kz], b.$v[kz]), oz);
-                    let x = _mm256_add_ps(_mm256_sub_ps(load!(a.$v[kx], b.$v[kx]), ox), _mm256_mul_ps(sx, z));
-                    let y = _mm256_add_ps(_mm256_sub_ps(load!(a.$v[ky], b.$v[ky]), oy), _mm256_mul_ps(sy, z));
-                    (x, y, z)
-                }};
-            }
-            let (x0, y0, z0) = sheared!(v0);
-            let (x1, y1, z1) = sheared!(v1);
-            let (x2, y2, z2) = sheared!(v2);
-            let (mul, sub, add) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps);
-            let mut e0 = sub(mul(x1, y2), mul(y1, x2));
-            let mut e1 = sub(mul(x2, y0), mul(y2, x0));
-            let mut e2 = sub(mul(x0, y1), mul(y0, x1));
-            let zero = _mm256_setzero_ps();
-            let (or, and) = (_mm256_or_ps, _mm256_and_ps);
-            let flat = _mm256_movemask_ps(or(
-                or(_mm256_cmp_ps::<_CMP_EQ_OQ>(e0, zero), _mm256_cmp_ps::<_CMP_EQ_OQ>(e1, zero)),
-                _mm256_cmp_ps::<_CMP_EQ_OQ>(e2, zero),
-            )) as u32;
-            if flat != 0 {
-                let mut e = [store!(e0), store!(e1), store!(e2)];
-                edges_f64_lanes(
-                    flat,
-                    [store!(x0), store!(x1), store!(x2)],
-                    [store!(y0), store!(y1), store!(y2)],
-                    &mut e,
-                );
-                (e0, e1, e2) =
-                    (_mm256_loadu_ps(e[0].as_ptr()), _mm256_loadu_ps(e[1].as_ptr()), _mm256_loadu_ps(e[2].as_ptr()));
-            }
-            // No mixed signs (NaN lanes, whichever way min and max take them, fail `ok_det`).
-            let (min, max) = (_mm256_min_ps, _mm256_max_ps);
-            let same_side = or(
-                _mm256_cmp_ps::<_CMP_GE_OQ>(min(min(e0, e1), e2), zero),
-                _mm256_cmp_ps::<_CMP_LE_OQ>(max(max(e0, e1), e2), zero),
-            );
-            let det = add(add(e0, e1), e2);
-            let t_scaled = mul(add(add(mul(e0, z0), mul(e1, z1)), mul(e2, z2)), sz);
-            let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-            let t = mul(t_scaled, inv_det);
-            let abs_det = _mm256_andnot_ps(_mm256_set1_ps(-0.0), det);
-            let ok_det = and(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(abs_det, zero),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(abs_det, _mm256_set1_ps(f32::INFINITY)),
-            );
-            let ok_t = and(
-                _mm256_cmp_ps::<_CMP_GE_OQ>(t, _mm256_set1_ps(t_min)),
-                _mm256_cmp_ps::<_CMP_LE_OQ>(t, _mm256_set1_ps(t_max)),
-            );
-            let mask = _mm256_movemask_ps(and(same_side, and(ok_det, ok_t))) as u32;
-            (mask, store!(t), store!(mul(e1, inv_det)), store!(mul(e2, inv_det)))
+        intersect_pair_avx2(self.cpu, r, a, b, t_min, t_max)
+    }
+}
+
+/// The watertight test on eight triangles (two blocks, as [`NodeTest::intersect_pair`] gives
+/// them) in 256-bit registers: the operations of `Tri4::intersect`, lane for lane, so the hits
+/// are the same bits. The 8- and 16-wide trees' leaves and the shadow groups use it.
+#[inline(always)]
+pub(super) fn intersect_pair_avx2(_: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+    use std::arch::x86_64::*;
+    // SAFETY: the CPU has AVX2 and FMA (the token says so); the loads read 16 bytes from rows of 4 floats,
+    // the stores write eight floats into arrays of eight.
+    unsafe {
+        // Macros, not closures: a closure is a function of its own, compiled without the
+        // caller's AVX2, and its intrinsics then stay calls (measured: a third more
+        // instructions per render).
+        macro_rules! load {
+            ($x:expr, $y:expr) => {
+                _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(_mm_loadu_ps($x.as_ptr())), _mm_loadu_ps($y.as_ptr()))
+            };
         }
+        macro_rules! store {
+            ($x:expr) => {{
+                let mut out = [0.0f32; 8];
+                _mm256_storeu_ps(out.as_mut_ptr(), $x);
+                out
+            }};
+        }
+        let tri = &r.tri;
+        let [kx, ky, kz] = tri.axes;
+        let (ox, oy, oz) =
+            (_mm256_set1_ps(tri.origin[0]), _mm256_set1_ps(tri.origin[1]), _mm256_set1_ps(tri.origin[2]));
+        let (sx, sy, sz) = (_mm256_set1_ps(tri.sx), _mm256_set1_ps(tri.sy), _mm256_set1_ps(tri.sz));
+        // A vertex row of both blocks, translated, permuted (a choice of rows) and sheared.
+        macro_rules! sheared {
+            ($v:ident) => {{
+                let z = _mm256_sub_ps(load!(a.$v[kz], b.$v[kz]), oz);
+                let x = _mm256_fmadd_ps(sx, z, _mm256_sub_ps(load!(a.$v[kx], b.$v[kx]), ox));
+                let y = _mm256_fmadd_ps(sy, z, _mm256_sub_ps(load!(a.$v[ky], b.$v[ky]), oy));
+                (x, y, z)
+            }};
+        }
+        let (x0, y0, z0) = sheared!(v0);
+        let (x1, y1, z1) = sheared!(v1);
+        let (x2, y2, z2) = sheared!(v2);
+        let (mul, sub, add) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps);
+        let mut e0 = sub(mul(x1, y2), mul(y1, x2));
+        let mut e1 = sub(mul(x2, y0), mul(y2, x0));
+        let mut e2 = sub(mul(x0, y1), mul(y0, x1));
+        let zero = _mm256_setzero_ps();
+        let (or, and, min, max) = (_mm256_or_ps, _mm256_and_ps, _mm256_min_ps, _mm256_max_ps);
+        let (mut lo, mut hi) = (min(min(e0, e1), e2), max(max(e0, e1), e2));
+        let flat =
+            _mm256_movemask_ps(or(_mm256_cmp_ps::<_CMP_EQ_OQ>(lo, zero), _mm256_cmp_ps::<_CMP_EQ_OQ>(hi, zero))) as u32;
+        if flat != 0 {
+            let mut e = [store!(e0), store!(e1), store!(e2)];
+            edges_f64_lanes(flat, [store!(x0), store!(x1), store!(x2)], [store!(y0), store!(y1), store!(y2)], &mut e);
+            (e0, e1, e2) =
+                (_mm256_loadu_ps(e[0].as_ptr()), _mm256_loadu_ps(e[1].as_ptr()), _mm256_loadu_ps(e[2].as_ptr()));
+            (lo, hi) = (min(min(e0, e1), e2), max(max(e0, e1), e2));
+        }
+        // No mixed signs (NaN lanes, whichever way min and max take them, fail `ok_det`).
+        let same_side = or(_mm256_cmp_ps::<_CMP_GE_OQ>(lo, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(hi, zero));
+        let det = add(add(e0, e1), e2);
+        let t_scaled = mul(_mm256_fmadd_ps(e2, z2, _mm256_fmadd_ps(e1, z1, mul(e0, z0))), sz);
+        let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+        let t = mul(t_scaled, inv_det);
+        let abs_det = _mm256_andnot_ps(_mm256_set1_ps(-0.0), det);
+        let ok_det = and(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(abs_det, zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(abs_det, _mm256_set1_ps(f32::INFINITY)),
+        );
+        let ok_t = and(
+            _mm256_cmp_ps::<_CMP_GE_OQ>(t, _mm256_set1_ps(t_min)),
+            _mm256_cmp_ps::<_CMP_LE_OQ>(t, _mm256_set1_ps(t_max)),
+        );
+        let mask = _mm256_movemask_ps(and(same_side, and(ok_det, ok_t))) as u32;
+        (mask, store!(t), store!(mul(e1, inv_det)), store!(mul(e2, inv_det)))
     }
 }
 
 /// The 16-wide slab test in AVX-512 (`std::arch`): one 512-bit instruction per step, with
 /// the 8-wide AVX2 test's triangle test. Made only with an [`Avx512`] token.
 pub struct Avx512Node16 {
-    /// The leaves' test.
-    pair: Avx2Node8,
+    /// For the leaves' test ([`intersect_pair_avx2`]).
+    cpu: Avx2,
     inv: [std::arch::x86_64::__m512; 3],
     /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
     oinv_near: [std::arch::x86_64::__m512; 3],
@@ -201,7 +196,7 @@ impl NodeTest<16> for Avx512Node16 {
         // SAFETY: the token proves that the CPU has AVX-512 F.
         unsafe {
             Avx512Node16 {
-                pair: <Avx2Node8 as NodeTest<8>>::new(cpu.into(), ray, inv, reach),
+                cpu: cpu.into(),
                 inv: splat!(inv),
                 oinv_near: splat!(o.near),
                 oinv_far: splat!(o.far),
@@ -251,6 +246,6 @@ impl NodeTest<16> for Avx512Node16 {
 
     #[inline(always)]
     fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        self.pair.intersect_pair(r, a, b, t_min, t_max)
+        intersect_pair_avx2(self.cpu, r, a, b, t_min, t_max)
     }
 }

@@ -145,27 +145,42 @@ pub trait NodeTest<const W: usize>: Sized {
 /// The lanes hit and their `t`, `u`, `v`, for eight triangles.
 pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
 
-/// `a * b - c` with one rounding, lane by lane: the AVX2 test's `vfmsub`, bit for bit. The
-/// `wide` vectors fuse it only where the crate is compiled for FMA (or NEON); elsewhere each
-/// lane goes through `f32::mul_add` (an instruction in code compiled for FMA, else libm's
-/// exact `fmaf`: the baseline traversal is slower, never different).
+/// Whether the `wide` vectors fuse `mul_add` and `mul_sub` themselves: where the crate is
+/// compiled for FMA (or NEON). Elsewhere [`fused_mul_add`] (and [`fused_mul_sub`]) goes through
+/// `f32::mul_add` lane by lane: an instruction in code compiled for FMA (the AVX2 and AVX-512
+/// traversals, which call the portable tests for the widths they have no `std::arch` test
+/// of), else libm's exact `fmaf` (the baseline traversal is slower, never different).
+const WIDE_FUSES: bool = cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon")));
+
+/// `a * b - c` with one rounding, lane by lane: the AVX2 test's `vfmsub`, bit for bit (the
+/// negation is exact, and folded into the fused instruction).
 #[inline(always)]
 pub(super) fn fused_mul_sub<const N: usize, V>(a: V, b: V, c: V) -> V
 where
+    V: Copy + FloatLanes<N> + std::ops::Neg<Output = V>,
+{
+    fused_mul_add(a, b, -c)
+}
+
+/// `a * b + c` with one rounding, lane by lane: `f32::mul_add` and the AVX2 test's `vfmadd`,
+/// bit for bit (see [`WIDE_FUSES`]).
+#[inline(always)]
+pub(super) fn fused_mul_add<const N: usize, V>(a: V, b: V, c: V) -> V
+where
     V: Copy + FloatLanes<N>,
 {
-    if cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon"))) {
-        a.mul_sub_fused(b, c)
+    if WIDE_FUSES {
+        a.mul_add_fused(b, c)
     } else {
         let (a, b, c) = (a.lanes(), b.lanes(), c.lanes());
-        V::from_lanes(std::array::from_fn(|i| a[i].mul_add(b[i], -c[i])))
+        V::from_lanes(std::array::from_fn(|i| a[i].mul_add(b[i], c[i])))
     }
 }
 
 /// The `wide` vector types the portable tests use, as arrays of lanes.
 pub(super) trait FloatLanes<const N: usize> {
-    /// `self * b - c`, fused where `wide` fuses it.
-    fn mul_sub_fused(self, b: Self, c: Self) -> Self;
+    /// `self * b + c`, fused where `wide` fuses it.
+    fn mul_add_fused(self, b: Self, c: Self) -> Self;
     /// The lanes.
     fn lanes(self) -> [f32; N];
     /// From lanes.
@@ -176,8 +191,8 @@ macro_rules! lanes_impl {
     ($v:ty, $n:literal) => {
         impl FloatLanes<$n> for $v {
             #[inline(always)]
-            fn mul_sub_fused(self, b: Self, c: Self) -> Self {
-                self.mul_sub(b, c)
+            fn mul_add_fused(self, b: Self, c: Self) -> Self {
+                self.mul_add(b, c)
             }
             #[inline(always)]
             fn lanes(self) -> [f32; $n] {
@@ -294,24 +309,28 @@ impl Tri4 {
         let l = |a: &[f32; 4]| f32x4::new(*a);
         let sheared = |v: &[[f32; 4]; 3]| {
             let z = l(&v[kz]) - oz;
-            (l(&v[kx]) - ox + sx * z, l(&v[ky]) - oy + sy * z, z)
+            (fused_mul_add(sx, z, l(&v[kx]) - ox), fused_mul_add(sy, z, l(&v[ky]) - oy), z)
         };
         let (x0, y0, z0) = sheared(&self.v0);
         let (x1, y1, z1) = sheared(&self.v1);
         let (x2, y2, z2) = sheared(&self.v2);
         let (mut e0, mut e1, mut e2) = (x1 * y2 - y1 * x2, x2 * y0 - y2 * x0, x0 * y1 - y0 * x1);
         let zero = f32x4::ZERO;
-        let flat = (e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero)).to_bitmask();
+        let bounds = |e0: f32x4, e1: f32x4, e2: f32x4| (e0.fast_min(e1).fast_min(e2), e0.fast_max(e1).fast_max(e2));
+        let (mut lo, mut hi) = bounds(e0, e1, e2);
+        // The scalar test's check for an edge function of exactly 0, on the least and greatest.
+        let flat = (lo.simd_eq(zero) | hi.simd_eq(zero)).to_bitmask();
         if flat != 0 {
             let a = |v: [f32x4; 3]| v.map(f32x4::to_array);
             let mut e = a([e0, e1, e2]);
             edges_f64_lanes(flat, a([x0, x1, x2]), a([y0, y1, y2]), &mut e);
             [e0, e1, e2] = e.map(f32x4::new);
+            (lo, hi) = bounds(e0, e1, e2);
         }
         // No mixed signs (NaN lanes, whichever way `fast_min` takes them, fail `ok_det`).
-        let same_side = e0.fast_min(e1).fast_min(e2).simd_ge(zero) | e0.fast_max(e1).fast_max(e2).simd_le(zero);
+        let same_side = lo.simd_ge(zero) | hi.simd_le(zero);
         let det = e0 + e1 + e2;
-        let t_scaled = (e0 * z0 + e1 * z1 + e2 * z2) * sz;
+        let t_scaled = fused_mul_add(e2, z2, fused_mul_add(e1, z1, e0 * z0)) * sz;
         let inv_det = f32x4::ONE / det;
         let t = t_scaled * inv_det;
         // det != 0 and finite: |det| in (0, inf).
