@@ -80,8 +80,18 @@ pub(super) fn edges_f64_lanes<const N: usize>(
 /// exactly the scalar test's `min`/`max` of the two plane distances with half the work.
 #[inline(always)]
 pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
-    let (nx, ny, nz) = (usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0));
-    ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz])
+    // By the mask of negative components (one compare for the three): a table lookup.
+    const PLANES: [([usize; 3], [usize; 3]); 8] = {
+        let mut t = [([0; 3], [0; 3]); 8];
+        let mut m = 0;
+        while m < 8 {
+            let (nx, ny, nz) = (m & 1, m >> 1 & 1, m >> 2);
+            t[m] = ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz]);
+            m += 1;
+        }
+        t
+    };
+    PLANES[inv.cmplt(Vec3A::ZERO).bitmask() as usize]
 }
 
 /// Bound on the slab test's rounding, relative to `(|o| + reach) * |inv|` per axis (see
