@@ -96,7 +96,7 @@ pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
 
 /// Bound on the slab test's rounding, relative to `(|o| + reach) * |inv|` per axis (see
 /// [`SlabOrigin`]): four times the unit roundoff 2^-24, where the analysis needs three.
-const SLAB_ROUNDING: f32 = 1.0 / (1 << 22) as f32;
+pub(super) const SLAB_ROUNDING: f32 = 1.0 / (1 << 22) as f32;
 
 /// Per axis, the ray's `o * inv` (rounded once) as the slab test subtracts it from the planes
 /// a ray enters boxes by (`near`) and from those it leaves by (`far`): moved apart by a bound

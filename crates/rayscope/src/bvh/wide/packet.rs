@@ -20,7 +20,7 @@
 
 use wide::f32x8;
 
-use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, SlabOrigin, fused_mul_sub, planes};
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, SLAB_ROUNDING, Slab, fused_mul_sub, planes};
 use super::layout::WideNode;
 use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
@@ -347,10 +347,16 @@ where
         let axis = |a: usize| f32x8::new(invs.map(|v| v[a]));
         let inv = [axis(0), axis(1), axis(2)];
         let o = rays[0].origin;
-        // Each ray's `o * inv` for entry and exit planes, as its single-ray test has them.
-        let slab = invs.map(|v| SlabOrigin::new(o, v, self.reach));
-        let oinv_near = |a: usize| f32x8::new(slab.map(|s| s.near[a]));
-        let oinv_far = |a: usize| f32x8::new(slab.map(|s| s.far[a]));
+        // Each ray's `o * inv` for entry and exit planes, as its single-ray test has them:
+        // `SlabOrigin::new`'s operations in its order, eight rays at a time (the same bits).
+        let slab = |a: usize| {
+            let oinv = f32x8::splat(o[a]) * inv[a];
+            let pad =
+                ((f32x8::splat(o[a].abs()) + f32x8::splat(self.reach)) * inv[a].abs() * f32x8::splat(SLAB_ROUNDING))
+                    .fast_min(f32x8::splat(f32::MAX));
+            (oinv + pad, oinv - pad)
+        };
+        let slab = [slab(0), slab(1), slab(2)];
         let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for v in &invs[..n] {
             for a in 0..3 {
@@ -371,12 +377,13 @@ where
             inv_lo,
             inv_hi,
             inv,
-            oinv_near: [oinv_near(0), oinv_near(1), oinv_near(2)],
-            oinv_far: [oinv_far(0), oinv_far(1), oinv_far(2)],
+            oinv_near: slab.map(|(near, _)| near),
+            oinv_far: slab.map(|(_, far)| far),
             // Twice the worst rounding of `o * inv` (2^-24 relative), with room to spare, and
-            // the widest the single-ray tests' entry and exit planes are moved apart.
+            // the widest the single-ray tests' entry and exit planes are moved apart (over all
+            // lanes: those beyond the packet repeat its last ray).
             slack: std::array::from_fn(|a| {
-                let apart = slab[..n].iter().fold(0.0f32, |m, s| greater(m, s.near[a] - s.far[a]));
+                let apart = (slab[a].0 - slab[a].1).to_array().into_iter().fold(0.0f32, greater);
                 o[a].abs() * inv_lo[a].abs().max(inv_hi[a].abs()) * (2.0f32).powi(-22) + apart
             }),
             nonneg: (0..PACKET).filter(|&lane| t_min_of(lane) >= 0.0).fold(0, |m, lane| m | 1 << lane),
