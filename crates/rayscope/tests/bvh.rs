@@ -230,7 +230,7 @@ fn degenerate_inputs() {
         shapes
             .into_iter()
             .map(|s| match s {
-                Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * k, (t.v0 + t.e1) * k, (t.v0 + t.e2) * k)),
+                Shape::Triangle(t) => Shape::Triangle(Triangle::new(t.v0 * k, t.v1 * k, t.v2 * k)),
                 other => other,
             })
             .collect()
@@ -390,12 +390,14 @@ fn validate_catches_broken_trees() {
 
 /// Shadow rays grouped per shading point (`bvh::shadow`) get the answers of traversing the
 /// tree one ray at a time: random points, lights and segments in random soups and in the
-/// Cornell box, with hits and misses both frequent.
+/// Cornell box, with hits and misses both frequent, on the detected SIMD level and the
+/// portable one (the groups' triangle test is dispatched on it).
 #[test]
 fn shadow_groups_match_one_ray_at_a_time() {
     let mut rng = Rng(21);
     let (mut groups, mut blocked, mut open, mut gave_up) = (0, 0, 0, 0);
     let mut check_groups = |wide: &WideTree, prims: &dyn Primitives, rng: &mut Rng, scale: f32| {
+        let portable = wide.clone().portable();
         for _ in 0..300 {
             let apex = rng.vec3(-scale, scale);
             let side = rng.dir();
@@ -406,6 +408,7 @@ fn shadow_groups_match_one_ray_at_a_time() {
                 continue;
             };
             groups += 1;
+            let occ_portable = portable.occluders(apex, side, center, radius).expect("the same list");
             for _ in 0..40 {
                 // A point of the light's ball, seen from the apex on the side of `side`.
                 let target = center + rng.dir() * radius * rng.f32().sqrt();
@@ -416,6 +419,7 @@ fn shadow_groups_match_one_ray_at_a_time() {
                 let ray = Ray::spawn_to(apex, Vec3A::ZERO, target, 0.0);
                 let want = wide.occluded(&ray, prims);
                 assert_eq!(wide.occluded_among(&ray, prims, &occ), want, "{ray:?} to {target:?}");
+                assert_eq!(portable.occluded_among(&ray, prims, &occ_portable), want, "portable, {ray:?}");
                 if want { blocked += 1 } else { open += 1 }
             }
         }
@@ -627,7 +631,7 @@ fn ray(scale: f32, shapes: Vec<Shape>) -> impl Strategy<Value = Ray> {
     (point(2.0 * scale), point(1.0), aim, interval).prop_map(move |(origin, dir, (aim, at, u, v), t_max)| {
         let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
         let dir = match shapes.get(at.index(shapes.len().max(1))) {
-            Some(Shape::Triangle(t)) if aim => (t.v0 + u * t.e1 + v * t.e2 - origin) * (1.0 / scale),
+            Some(Shape::Triangle(t)) if aim => (t.v0 + u * (t.v1 - t.v0) + v * (t.v2 - t.v0) - origin) * (1.0 / scale),
             _ => dir,
         };
         let mut ray = Ray::new(origin, dir);

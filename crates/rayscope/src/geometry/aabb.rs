@@ -78,15 +78,23 @@ impl Aabb {
 
     /// Entry distance of the ray `origin + t * dir` into the box if it meets it within
     /// `[t_min, t_max]`, else `f32::INFINITY`. `inv_dir` must come from [`safe_inv_dir`].
+    /// Conservative, as pbrt-v4's box test: each distance `(p - o) * inv` is within three
+    /// roundings of exact, so the exit distance is scaled by [`SLAB_SLACK`] and a ray through
+    /// the box's edge or corner (through a mesh vertex, say) is never culled.
     #[inline(always)]
     pub fn hit_distance(&self, origin: Vec3A, inv_dir: Vec3A, t_min: f32, t_max: f32) -> f32 {
         let t0 = (self.min - origin) * inv_dir;
         let t1 = (self.max - origin) * inv_dir;
         let near = t0.min(t1).max_element().max(t_min);
-        let far = t0.max(t1).min_element().min(t_max);
+        let far = (t0.max(t1).min_element() * SLAB_SLACK).min(t_max);
         if near <= far { near } else { f32::INFINITY }
     }
 }
+
+/// `1 + 2 gamma(3)` (pbrt's `gamma(n) = n u / (1 - n u)`, `u = 2^-24`): what
+/// [`Aabb::hit_distance`] scales exit distances by, so that rounding never culls a box the
+/// ray meets.
+pub const SLAB_SLACK: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON / 2.0) / (1.0 - 3.0 * f32::EPSILON / 2.0);
 
 /// The reciprocal of a ray direction for slab tests, with components smaller than 2^-64
 /// (zero among them) replaced by 2^-64 of the same sign. A plain `1 / 0 = inf` would make

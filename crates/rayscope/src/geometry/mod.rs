@@ -6,7 +6,7 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use sphere::Sphere;
-pub use triangle::Triangle;
+pub use triangle::{TriRay, Triangle};
 
 /// Where a ray meets a primitive: the distance and the primitive's own surface parameters
 /// (barycentrics `u`, `v` of vertices 1 and 2 for a triangle; zero for a sphere).

@@ -281,6 +281,8 @@ where
     pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
         let mut out = WideBvh { simd: Simd::detect(), ..WideBvh::default() };
         let Some(root) = bin.nodes.first() else { return out };
+        let b = root.bounds();
+        out.reach = b.min.abs().max(b.max.abs()).max_element();
         out.nodes.push(WideNode::empty());
         if root.is_leaf() {
             let r = out.leaf(prims, &Plan::<W>::decide_leaf(bin, prims, 0));

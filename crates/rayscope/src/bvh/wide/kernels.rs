@@ -34,29 +34,42 @@ use wide::{f32x4, f32x8, f32x16, i32x4, i32x8, i32x16};
 use super::avx::{Avx2Node8, Avx512Node16};
 use super::simd::{Avx2, Avx512, Baseline};
 use super::{Tri4, WideNode};
+use crate::geometry::TriRay;
+use crate::geometry::triangle::edges_f64;
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
-/// The ray's data for the packed triangle test, splatted across four lanes once per ray.
+/// The ray's data for the packed triangle test, computed once per ray: its watertight set-up
+/// ([`TriRay`]), which each kernel broadcasts from (the portable one's splats are hoisted out
+/// of its loops; the AVX2 one's `vbroadcastss` reads memory).
 pub struct RayLanes {
-    ox: f32x4,
-    oy: f32x4,
-    oz: f32x4,
-    dx: f32x4,
-    dy: f32x4,
-    dz: f32x4,
+    pub(super) tri: TriRay,
 }
 
 impl RayLanes {
     #[inline(always)]
     pub(super) fn new(ray: &Ray) -> RayLanes {
-        RayLanes {
-            ox: f32x4::splat(ray.origin.x),
-            oy: f32x4::splat(ray.origin.y),
-            oz: f32x4::splat(ray.origin.z),
-            dx: f32x4::splat(ray.dir.x),
-            dy: f32x4::splat(ray.dir.y),
-            dz: f32x4::splat(ray.dir.z),
+        RayLanes { tri: TriRay::new(ray) }
+    }
+}
+
+/// The packed tests' cold path: lanes `mask` had an edge function of exactly 0, so their three
+/// are recomputed in double precision from the sheared corners `x`, `y` (by vertex, then
+/// lane), as the scalar test does ([`edges_f64`]).
+#[cold]
+#[inline(never)]
+pub(super) fn edges_f64_lanes<const N: usize>(
+    mut mask: u32,
+    x: [[f32; N]; 3],
+    y: [[f32; N]; 3],
+    e: &mut [[f32; N]; 3],
+) {
+    while mask != 0 {
+        let lane = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let exact = edges_f64(x.map(|v| v[lane]), y.map(|v| v[lane]));
+        for k in 0..3 {
+            e[k][lane] = exact[k];
         }
     }
 }
@@ -67,8 +80,48 @@ impl RayLanes {
 /// exactly the scalar test's `min`/`max` of the two plane distances with half the work.
 #[inline(always)]
 pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
-    let (nx, ny, nz) = (usize::from(inv.x < 0.0), usize::from(inv.y < 0.0), usize::from(inv.z < 0.0));
-    ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz])
+    // By the mask of negative components (one compare for the three): a table lookup.
+    const PLANES: [([usize; 3], [usize; 3]); 8] = {
+        let mut t = [([0; 3], [0; 3]); 8];
+        let mut m = 0;
+        while m < 8 {
+            let (nx, ny, nz) = (m & 1, m >> 1 & 1, m >> 2);
+            t[m] = ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz]);
+            m += 1;
+        }
+        t
+    };
+    PLANES[inv.cmplt(Vec3A::ZERO).bitmask() as usize]
+}
+
+/// Bound on the slab test's rounding, relative to `(|o| + reach) * |inv|` per axis (see
+/// [`SlabOrigin`]): four times the unit roundoff 2^-24, where the analysis needs three.
+pub(super) const SLAB_ROUNDING: f32 = 1.0 / (1 << 22) as f32;
+
+/// Per axis, the ray's `o * inv` (rounded once) as the slab test subtracts it from the planes
+/// a ray enters boxes by (`near`) and from those it leaves by (`far`): moved apart by a bound
+/// on the test's rounding, so that the test is conservative and a ray through a box's edge or
+/// corner (as a ray through a mesh's vertex is, at every box around the vertex) never misses
+/// it. The computed distance to plane `p` is within `(2 |p| + 3 |o|) |inv| 2^-24` of the exact
+/// one (the rounding of `inv`, of `o * inv` and of the fused result); with every plane within
+/// `reach` of zero, `(|o| + reach) |inv| 2^-22` covers it. Without this, rays aimed at the
+/// vertices of a closed sphere escaped through the boxes, not through the triangle test.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SlabOrigin {
+    /// `o * inv` plus the bound: entry distances come out no later than exact.
+    pub(super) near: Vec3A,
+    /// `o * inv` minus the bound: exit distances come out no earlier than exact.
+    pub(super) far: Vec3A,
+}
+
+impl SlabOrigin {
+    #[inline(always)]
+    pub(super) fn new(origin: Vec3A, inv: Vec3A, reach: f32) -> SlabOrigin {
+        let oinv = origin * inv;
+        // Finite, so that an infinite `o * inv` stays infinite rather than turning NaN.
+        let pad = ((origin.abs() + Vec3A::splat(reach)) * inv.abs() * SLAB_ROUNDING).min(Vec3A::splat(f32::MAX));
+        SlabOrigin { near: oinv + pad, far: oinv - pad }
+    }
 }
 
 /// A ray prepared for the slab test of one node's `W` boxes at once. Only [`NodeTest::new`]
@@ -78,8 +131,9 @@ pub trait NodeTest<const W: usize>: Sized {
     /// The token that proves the CPU has the test's features ([`Baseline`]: none).
     type Cpu: Copy;
 
-    /// Prepare `ray` with its safe inverse direction `inv`, on the CPU `cpu` vouches for.
-    fn new(cpu: Self::Cpu, ray: &Ray, inv: Vec3A) -> Self;
+    /// Prepare `ray` with its safe inverse direction `inv`, on the CPU `cpu` vouches for, for
+    /// a tree whose boxes lie within `reach` of the origin on every axis ([`SlabOrigin`]).
+    fn new(cpu: Self::Cpu, ray: &Ray, inv: Vec3A, reach: f32) -> Self;
 
     /// Entry distances of the node's `W` child boxes and the mask of those hit within
     /// `[t_min, t_max]`, by the slab test of the module documentation. `FORWARD` says that
@@ -101,27 +155,42 @@ pub trait NodeTest<const W: usize>: Sized {
 /// The lanes hit and their `t`, `u`, `v`, for eight triangles.
 pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
 
-/// `a * b - c` with one rounding, lane by lane: the AVX2 test's `vfmsub`, bit for bit. The
-/// `wide` vectors fuse it only where the crate is compiled for FMA (or NEON); elsewhere each
-/// lane goes through `f32::mul_add` (an instruction in code compiled for FMA, else libm's
-/// exact `fmaf`: the baseline traversal is slower, never different).
+/// Whether the `wide` vectors fuse `mul_add` and `mul_sub` themselves: where the crate is
+/// compiled for FMA (or NEON). Elsewhere [`fused_mul_add`] (and [`fused_mul_sub`]) goes through
+/// `f32::mul_add` lane by lane: an instruction in code compiled for FMA (the AVX2 and AVX-512
+/// traversals, which call the portable tests for the widths they have no `std::arch` test
+/// of), else libm's exact `fmaf` (the baseline traversal is slower, never different).
+const WIDE_FUSES: bool = cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon")));
+
+/// `a * b - c` with one rounding, lane by lane: the AVX2 test's `vfmsub`, bit for bit (the
+/// negation is exact, and folded into the fused instruction).
 #[inline(always)]
 pub(super) fn fused_mul_sub<const N: usize, V>(a: V, b: V, c: V) -> V
 where
+    V: Copy + FloatLanes<N> + std::ops::Neg<Output = V>,
+{
+    fused_mul_add(a, b, -c)
+}
+
+/// `a * b + c` with one rounding, lane by lane: `f32::mul_add` and the AVX2 test's `vfmadd`,
+/// bit for bit (see [`WIDE_FUSES`]).
+#[inline(always)]
+pub(super) fn fused_mul_add<const N: usize, V>(a: V, b: V, c: V) -> V
+where
     V: Copy + FloatLanes<N>,
 {
-    if cfg!(any(target_feature = "fma", all(target_arch = "aarch64", target_feature = "neon"))) {
-        a.mul_sub_fused(b, c)
+    if WIDE_FUSES {
+        a.mul_add_fused(b, c)
     } else {
         let (a, b, c) = (a.lanes(), b.lanes(), c.lanes());
-        V::from_lanes(std::array::from_fn(|i| a[i].mul_add(b[i], -c[i])))
+        V::from_lanes(std::array::from_fn(|i| a[i].mul_add(b[i], c[i])))
     }
 }
 
 /// The `wide` vector types the portable tests use, as arrays of lanes.
 pub(super) trait FloatLanes<const N: usize> {
-    /// `self * b - c`, fused where `wide` fuses it.
-    fn mul_sub_fused(self, b: Self, c: Self) -> Self;
+    /// `self * b + c`, fused where `wide` fuses it.
+    fn mul_add_fused(self, b: Self, c: Self) -> Self;
     /// The lanes.
     fn lanes(self) -> [f32; N];
     /// From lanes.
@@ -132,8 +201,8 @@ macro_rules! lanes_impl {
     ($v:ty, $n:literal) => {
         impl FloatLanes<$n> for $v {
             #[inline(always)]
-            fn mul_sub_fused(self, b: Self, c: Self) -> Self {
-                self.mul_sub(b, c)
+            fn mul_add_fused(self, b: Self, c: Self) -> Self {
+                self.mul_add(b, c)
             }
             #[inline(always)]
             fn lanes(self) -> [f32; $n] {
@@ -193,8 +262,9 @@ macro_rules! portable_node_test {
         /// The slab test on the portable `wide` vectors.
         pub struct $name {
             inv: [$v; 3],
-            /// `o * inv` per axis, rounded once.
-            oinv: [$v; 3],
+            /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
+            oinv_near: [$v; 3],
+            oinv_far: [$v; 3],
             near: [usize; 3],
             far: [usize; 3],
         }
@@ -203,22 +273,21 @@ macro_rules! portable_node_test {
             type Cpu = Baseline;
 
             #[inline(always)]
-            fn new(_: Baseline, ray: &Ray, inv: Vec3A) -> Self {
+            fn new(_: Baseline, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
                 let (near, far) = planes(inv);
-                let oinv = ray.origin * inv;
-                $name {
-                    inv: [<$v>::splat(inv.x), <$v>::splat(inv.y), <$v>::splat(inv.z)],
-                    oinv: [<$v>::splat(oinv.x), <$v>::splat(oinv.y), <$v>::splat(oinv.z)],
-                    near,
-                    far,
-                }
+                let o = SlabOrigin::new(ray.origin, inv, reach);
+                let splat = |v: Vec3A| [<$v>::splat(v.x), <$v>::splat(v.y), <$v>::splat(v.z)];
+                $name { inv: splat(inv), oinv_near: splat(o.near), oinv_far: splat(o.far), near, far }
             }
 
             #[inline(always)]
             fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
-                let t = |row: usize, a: usize| fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], self.oinv[a]);
-                let near = [t(self.near[0], 0), t(self.near[1], 1), t(self.near[2], 2)];
-                let far = [t(self.far[0], 0), t(self.far[1], 1), t(self.far[2], 2)];
+                let t = |row: usize, a: usize, oinv: &[$v; 3]| {
+                    fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], oinv[a])
+                };
+                let (on, of) = (&self.oinv_near, &self.oinv_far);
+                let near = [t(self.near[0], 0, on), t(self.near[1], 1, on), t(self.near[2], 2, on)];
+                let far = [t(self.far[0], 0, of), t(self.far[1], 1, of), t(self.far[2], 2, of)];
                 // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
                 let t_max = <$v>::splat(t_max.min(f32::MAX));
                 let (near, mask) = if FORWARD {
@@ -238,39 +307,47 @@ portable_node_test!(Portable8, 8, f32x8);
 portable_node_test!(Portable16, 16, f32x16);
 
 impl Tri4 {
-    /// Möller–Trumbore on four triangles at once, with exactly the scalar test's arithmetic
-    /// ([`Triangle::intersect`]), so hits are bit-identical: returns the lanes hit within
-    /// `[t_min, t_max]` and their `t`, `u`, `v`.
+    /// The watertight test on four triangles at once, with exactly the scalar test's
+    /// arithmetic ([`Triangle::intersect_prepared`](crate::geometry::Triangle::intersect_prepared)),
+    /// so hits are bit-identical: returns the lanes hit within `[t_min, t_max]` and their `t`,
+    /// `u`, `v`. The permutation is a choice of rows (the block is structure-of-arrays).
     #[inline(always)]
     pub(super) fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
+        let [kx, ky, kz] = r.tri.axes;
+        let [ox, oy, oz] = r.tri.origin.map(f32x4::splat);
+        let (sx, sy, sz) = (f32x4::splat(r.tri.sx), f32x4::splat(r.tri.sy), f32x4::splat(r.tri.sz));
         let l = |a: &[f32; 4]| f32x4::new(*a);
-        let (e1x, e1y, e1z) = (l(&self.e1[0]), l(&self.e1[1]), l(&self.e1[2]));
-        let (e2x, e2y, e2z) = (l(&self.e2[0]), l(&self.e2[1]), l(&self.e2[2]));
-        // p = dir x e2
-        let px = r.dy * e2z - r.dz * e2y;
-        let py = r.dz * e2x - r.dx * e2z;
-        let pz = r.dx * e2y - r.dy * e2x;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let inv_det = f32x4::ONE / det;
-        // s = origin - v0
-        let sx = r.ox - l(&self.v0[0]);
-        let sy = r.oy - l(&self.v0[1]);
-        let sz = r.oz - l(&self.v0[2]);
-        let u = (sx * px + sy * py + sz * pz) * inv_det;
-        // q = s x e1
-        let qx = sy * e1z - sz * e1y;
-        let qy = sz * e1x - sx * e1z;
-        let qz = sx * e1y - sy * e1x;
-        let v = (r.dx * qx + r.dy * qy + r.dz * qz) * inv_det;
-        let t = (e2x * qx + e2y * qy + e2z * qz) * inv_det;
+        let sheared = |v: &[[f32; 4]; 3]| {
+            let z = l(&v[kz]) - oz;
+            (fused_mul_add(sx, z, l(&v[kx]) - ox), fused_mul_add(sy, z, l(&v[ky]) - oy), z)
+        };
+        let (x0, y0, z0) = sheared(&self.v0);
+        let (x1, y1, z1) = sheared(&self.v1);
+        let (x2, y2, z2) = sheared(&self.v2);
+        let (mut e0, mut e1, mut e2) = (x1 * y2 - y1 * x2, x2 * y0 - y2 * x0, x0 * y1 - y0 * x1);
         let zero = f32x4::ZERO;
+        let bounds = |e0: f32x4, e1: f32x4, e2: f32x4| (e0.fast_min(e1).fast_min(e2), e0.fast_max(e1).fast_max(e2));
+        let (mut lo, mut hi) = bounds(e0, e1, e2);
+        // The scalar test's check for an edge function of exactly 0, on the least and greatest.
+        let flat = (lo.simd_eq(zero) | hi.simd_eq(zero)).to_bitmask();
+        if flat != 0 {
+            let a = |v: [f32x4; 3]| v.map(f32x4::to_array);
+            let mut e = a([e0, e1, e2]);
+            edges_f64_lanes(flat, a([x0, x1, x2]), a([y0, y1, y2]), &mut e);
+            [e0, e1, e2] = e.map(f32x4::new);
+            (lo, hi) = bounds(e0, e1, e2);
+        }
+        // No mixed signs (NaN lanes, whichever way `fast_min` takes them, fail `ok_det`).
+        let same_side = lo.simd_ge(zero) | hi.simd_le(zero);
+        let det = e0 + e1 + e2;
+        let t_scaled = fused_mul_add(e2, z2, fused_mul_add(e1, z1, e0 * z0)) * sz;
+        let inv_det = f32x4::ONE / det;
+        let t = t_scaled * inv_det;
         // det != 0 and finite: |det| in (0, inf).
         let ok_det = det.abs().simd_gt(zero) & det.abs().simd_lt(f32x4::splat(f32::INFINITY));
-        let ok_u = u.simd_ge(zero) & u.simd_le(f32x4::ONE);
-        let ok_v = v.simd_ge(zero) & (u + v).simd_le(f32x4::ONE);
         let ok_t = t.simd_ge(f32x4::splat(t_min)) & t.simd_le(f32x4::splat(t_max));
-        let mask = (ok_det & ok_u & ok_v & ok_t).to_bitmask();
-        (mask, t.to_array(), u.to_array(), v.to_array())
+        let mask = (same_side & ok_det & ok_t).to_bitmask();
+        (mask, t.to_array(), (e1 * inv_det).to_array(), (e2 * inv_det).to_array())
     }
 }
 
@@ -369,6 +446,66 @@ mod tests {
         n
     }
 
+    /// The packed triangle tests (portable, and AVX2 where the CPU has it) give the scalar
+    /// watertight test's hits bit for bit, on triangles of a coarse grid hit through their
+    /// corners and edges by rays along the axes and diagonals (so that edge functions of exactly
+    /// 0, and the double-precision fallback, are common), and on any rays.
+    #[test]
+    fn packed_triangles_match_the_scalar_test() {
+        use crate::bvh::wide::kernels::RayLanes;
+        use crate::bvh::wide::{EMPTY, Tri4};
+        use crate::geometry::Triangle;
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = Avx2::new();
+        let grid = |rng: &mut TestRng| Vec3A::new(rng.random_range(-2..3) as f32, rng.random_range(-2..3) as f32, 0.0);
+        let (mut hits, mut fallback) = (0, 0);
+        for _ in 0..20_000 {
+            let tris: [Triangle; 8] = std::array::from_fn(|_| {
+                let v = [grid(&mut rng), grid(&mut rng), grid(&mut rng)];
+                Triangle::new(v[0], v[1], v[2] + Vec3A::Z * rng.random_range(-1..2) as f32)
+            });
+            let a = Tri4::pack((0..4).map(|i| (i as u32, tris[i])));
+            let b = Tri4::pack((4..8).map(|i| (i as u32, tris[i])));
+            let origin = if rng.random::<bool>() { grid(&mut rng) + Vec3A::Z * 3.0 } else { vec3(&mut rng, -3.0, 3.0) };
+            let d = [Vec3A::NEG_Z, Vec3A::new(1.0, 1.0, -1.0).normalize(), dir(&mut rng)][rng.random_range(0..3usize)];
+            let ray = Ray::new(origin, d);
+            let lanes = RayLanes::new(&ray);
+            let (ma, ta, ua, va) = a.intersect(&lanes, 0.0, 10.0);
+            let (mb, tb, ub, vb) = b.intersect(&lanes, 0.0, 10.0);
+            let portable = (ma | mb << 4, [ta, tb].concat(), [ua, ub].concat(), [va, vb].concat());
+            for (i, tri) in tris.iter().enumerate() {
+                let scalar = tri.intersect(&ray, 0.0, 10.0);
+                assert_eq!(portable.0 & 1 << i != 0, scalar.is_some(), "lane {i}: {tri:?} {ray:?}");
+                if let Some(h) = scalar {
+                    hits += 1;
+                    let bits = |x: f32| x.to_bits();
+                    assert_eq!(
+                        (bits(h.t), bits(h.u), bits(h.v)),
+                        (bits(portable.1[i]), bits(portable.2[i]), bits(portable.3[i]))
+                    );
+                }
+                let r = crate::geometry::TriRay::new(&ray);
+                let e = |p: Vec3A| (p[r.axes[0]] - r.origin[0], p[r.axes[1]] - r.origin[1]);
+                fallback += usize::from(tri.vertices().iter().any(|&p| e(p) == (0.0, 0.0)));
+            }
+            #[cfg(target_arch = "x86_64")]
+            if let Some(cpu) = avx2 {
+                let fast = <Avx2Node8 as NodeTest<8>>::new(cpu, &ray, safe_inv_dir(ray.dir), 3.0);
+                let (m, t, u, v) = fast.intersect_pair(&lanes, &a, &b, 0.0, 10.0);
+                assert_eq!(m, portable.0, "{ray:?}");
+                for i in (0..8).filter(|i| m & 1 << i != 0) {
+                    assert_eq!(
+                        [t[i], u[i], v[i]].map(f32::to_bits),
+                        [portable.1[i], portable.2[i], portable.3[i]].map(f32::to_bits)
+                    );
+                }
+            }
+            assert_ne!(a.slot, [EMPTY; 4]);
+        }
+        assert!(hits > 5000 && fallback > 1000, "{hits} hits, {fallback} through a corner");
+    }
+
     /// The SIMD node tests of each width, where the target has them.
     #[cfg(target_arch = "x86_64")]
     type Simd8 = Avx2Node8;
@@ -418,14 +555,14 @@ mod tests {
         let inv = safe_inv_dir(ray.dir);
         let (t_min, t_max) = (ray.t.min, ray.t.max);
         let portable = {
-            let p = P::new(Baseline, &ray, inv);
+            let p = P::new(Baseline, &ray, inv, 1.0);
             if t_min >= 0.0 { p.test::<true>(&node, t_min, t_max) } else { p.test::<false>(&node, t_min, t_max) }
         };
         if let Some(cpu) = simd {
             // Here the test is compiled without its features (its intrinsics are calls), in the
             // traversal with them: the same operations either way.
             let fast = {
-                let a = S::new(cpu, &ray, inv);
+                let a = S::new(cpu, &ray, inv, 1.0);
                 if t_min >= 0.0 { a.test::<true>(&node, t_min, t_max) } else { a.test::<false>(&node, t_min, t_max) }
             };
             assert_eq!(portable.1, fast.1, "{W}-wide masks differ for {ray:?}");

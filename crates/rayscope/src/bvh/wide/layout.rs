@@ -58,19 +58,24 @@ impl<const W: usize> WideNode<W> {
     }
 }
 
-/// Four triangles in structure-of-arrays form, for one 4-wide Möller–Trumbore test: the
-/// leaves of static triangles are stored as these. 160 bytes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Four triangles in structure-of-arrays form, for one 4-wide watertight test: the leaves of
+/// static triangles are stored as these. 160 bytes.
+///
+/// The corners are the mesh's own floats (no `v0 + e1` reconstruction), so a vertex shared by
+/// two triangles is the same value in both, as the watertight test needs. Unused lanes, and
+/// those of degenerate triangles ([`Triangle::is_degenerate`]), hold NaN corners: NaN never
+/// hits, and unlike a zero-area triangle (whose edge functions are all exactly 0) it never
+/// sends the test to its double-precision fallback.
+#[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub struct Tri4 {
-    /// First vertices, by axis.
+    /// Vertices 0, by axis.
     pub v0: [[f32; 4]; 3],
-    /// Edges from vertex 0 to vertex 1, by axis.
-    pub e1: [[f32; 4]; 3],
-    /// Edges from vertex 0 to vertex 2, by axis.
-    pub e2: [[f32; 4]; 3],
-    /// Primitive slot of each lane; [`EMPTY`] for an unused lane (whose triangle is
-    /// degenerate and never hit).
+    /// Vertices 1, by axis.
+    pub v1: [[f32; 4]; 3],
+    /// Vertices 2, by axis.
+    pub v2: [[f32; 4]; 3],
+    /// Primitive slot of each lane; [`EMPTY`] for an unused lane.
     pub slot: [u32; 4],
 }
 
@@ -80,25 +85,30 @@ impl Tri4 {
     pub(super) fn pack(tris: impl Iterator<Item = (u32, Triangle)>) -> Tri4 {
         let mut t = Tri4::EMPTY;
         for (lane, (slot, tri)) in tris.take(4).enumerate() {
+            t.slot[lane] = slot;
+            if tri.is_degenerate() {
+                // Never hit, as the scalar test has it: NaN corners, so the kernels need not ask.
+                continue;
+            }
             for axis in 0..3 {
                 t.v0[axis][lane] = tri.v0[axis];
-                t.e1[axis][lane] = tri.e1[axis];
-                t.e2[axis][lane] = tri.e2[axis];
+                t.v1[axis][lane] = tri.v1[axis];
+                t.v2[axis][lane] = tri.v2[axis];
             }
-            t.slot[lane] = slot;
         }
         t
     }
 
-    /// A block of four unused lanes (degenerate triangles, never hit).
-    pub const EMPTY: Tri4 = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], slot: [EMPTY; 4] };
+    /// A block of four unused lanes (NaN corners, never hit).
+    pub const EMPTY: Tri4 =
+        Tri4 { v0: [[f32::NAN; 4]; 3], v1: [[f32::NAN; 4]; 3], v2: [[f32::NAN; 4]; 3], slot: [EMPTY; 4] };
 
     /// Copy lane `from` of `src` into lane `to`, bit for bit.
     pub fn copy_lane(&mut self, to: usize, src: &Tri4, from: usize) {
         for axis in 0..3 {
             self.v0[axis][to] = src.v0[axis][from];
-            self.e1[axis][to] = src.e1[axis][from];
-            self.e2[axis][to] = src.e2[axis][from];
+            self.v1[axis][to] = src.v1[axis][from];
+            self.v2[axis][to] = src.v2[axis][from];
         }
         self.slot[to] = src.slot[from];
     }
@@ -106,7 +116,15 @@ impl Tri4 {
     /// The triangle in `lane`.
     pub fn triangle(&self, lane: usize) -> Triangle {
         let v = |a: &[[f32; 4]; 3]| Vec3A::new(a[0][lane], a[1][lane], a[2][lane]);
-        Triangle { v0: v(&self.v0), e1: v(&self.e1), e2: v(&self.e2) }
+        Triangle { v0: v(&self.v0), v1: v(&self.v1), v2: v(&self.v2) }
+    }
+}
+
+/// Blocks compare bit for bit (so that NaN lanes, unused, compare equal).
+impl PartialEq for Tri4 {
+    fn eq(&self, other: &Tri4) -> bool {
+        let bits = |t: &Tri4| [t.v0, t.v1, t.v2].map(|v| v.map(|axis| axis.map(f32::to_bits)));
+        self.slot == other.slot && bits(self) == bits(other)
     }
 }
 

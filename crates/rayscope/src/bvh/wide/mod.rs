@@ -64,6 +64,9 @@ pub struct WideBvh<const W: usize> {
     /// The other leaves (spheres, moving shapes, mixes, oversized leaves): slot ranges whose
     /// primitives are intersected one by one through [`crate::bvh::Primitives`].
     pub ranges: Vec<LeafRange>,
+    /// The largest magnitude of any box coordinate (0 for an empty tree): what the slab
+    /// tests' bound on their rounding is scaled by (see `kernels.rs`, `SlabOrigin`).
+    pub reach: f32,
     /// The traversal variant: [`SimdLevel::detect`]'s when built, with the token that proves
     /// the CPU has it; [`WideBvh::portable`] selects the baseline.
     simd: Simd,

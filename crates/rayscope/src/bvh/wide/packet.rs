@@ -20,7 +20,7 @@
 
 use wide::f32x8;
 
-use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, fused_mul_sub, planes};
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, SLAB_ROUNDING, Slab, fused_mul_sub, planes};
 use super::layout::WideNode;
 use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
@@ -98,8 +98,10 @@ pub struct Packet {
     inv_hi: [f32; 3],
     /// Per axis, each ray's inverse direction (lanes beyond the packet repeat its last ray).
     inv: [f32x8; 3],
-    /// Per axis, each ray's `o * inv`, rounded once (as the single-ray test has it).
-    oinv: [f32x8; 3],
+    /// Per axis, each ray's `o * inv` for the planes it enters and leaves boxes by, as the
+    /// single-ray test has them (`SlabOrigin`).
+    oinv_near: [f32x8; 3],
+    oinv_far: [f32x8; 3],
     /// Per axis, a bound on the rounding error of the single-ray test's `o * inv` term over
     /// the packet, which the inner nodes' test allows for.
     slack: [f32; 3],
@@ -345,7 +347,16 @@ where
         let axis = |a: usize| f32x8::new(invs.map(|v| v[a]));
         let inv = [axis(0), axis(1), axis(2)];
         let o = rays[0].origin;
-        let oinv_axis = |a: usize| f32x8::new(invs.map(|v| o[a] * v[a]));
+        // Each ray's `o * inv` for entry and exit planes, as its single-ray test has them:
+        // `SlabOrigin::new`'s operations in its order, eight rays at a time (the same bits).
+        let slab = |a: usize| {
+            let oinv = f32x8::splat(o[a]) * inv[a];
+            let pad =
+                ((f32x8::splat(o[a].abs()) + f32x8::splat(self.reach)) * inv[a].abs() * f32x8::splat(SLAB_ROUNDING))
+                    .fast_min(f32x8::splat(f32::MAX));
+            (oinv + pad, oinv - pad)
+        };
+        let slab = [slab(0), slab(1), slab(2)];
         let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for v in &invs[..n] {
             for a in 0..3 {
@@ -366,9 +377,15 @@ where
             inv_lo,
             inv_hi,
             inv,
-            oinv: [oinv_axis(0), oinv_axis(1), oinv_axis(2)],
-            // Twice the worst rounding of `o * inv` (2^-24 relative), with room to spare.
-            slack: std::array::from_fn(|a| o[a].abs() * inv_lo[a].abs().max(inv_hi[a].abs()) * (2.0f32).powi(-22)),
+            oinv_near: slab.map(|(near, _)| near),
+            oinv_far: slab.map(|(_, far)| far),
+            // Twice the worst rounding of `o * inv` (2^-24 relative), with room to spare, and
+            // the widest the single-ray tests' entry and exit planes are moved apart (over all
+            // lanes: those beyond the packet repeat its last ray).
+            slack: std::array::from_fn(|a| {
+                let apart = (slab[a].0 - slab[a].1).to_array().into_iter().fold(0.0f32, greater);
+                o[a].abs() * inv_lo[a].abs().max(inv_hi[a].abs()) * (2.0f32).powi(-22) + apart
+            }),
             nonneg: (0..PACKET).filter(|&lane| t_min_of(lane) >= 0.0).fold(0, |m, lane| m | 1 << lane),
             t_min_pos: f32x8::new(std::array::from_fn(|lane| t_min_of(lane) + 0.0)),
             t_min: f32x8::new(t_min),
@@ -397,7 +414,7 @@ where
                     lanes &= lanes - 1;
                     let r = &rays[lane];
                     if made & 1 << lane == 0 {
-                        singles[lane].write((T::new(leaf_cpu, r, invs[lane]), RayLanes::new(r)));
+                        singles[lane].write((T::new(leaf_cpu, r, invs[lane], self.reach), RayLanes::new(r)));
                         made |= 1 << lane;
                     }
                     // SAFETY: written above, or earlier as `made` records.
@@ -498,9 +515,12 @@ impl Packet {
     /// single-ray traversal tests a box (the same operations, lane by lane).
     #[inline(always)]
     fn leaf_lanes<const W: usize>(&self, node: &WideNode<W>, i: usize, t_max: f32x8) -> u32 {
-        let t = |row: usize, a: usize| fused_mul_sub(f32x8::splat(node.bounds[row][i]), self.inv[a], self.oinv[a]);
-        let near = [t(self.near_row[0], 0), t(self.near_row[1], 1), t(self.near_row[2], 2)];
-        let far = [t(self.far_row[0], 0), t(self.far_row[1], 1), t(self.far_row[2], 2)];
+        let t = |row: usize, a: usize, oinv: &[f32x8; 3]| {
+            fused_mul_sub(f32x8::splat(node.bounds[row][i]), self.inv[a], oinv[a])
+        };
+        let (on, of) = (&self.oinv_near, &self.oinv_far);
+        let near = [t(self.near_row[0], 0, on), t(self.near_row[1], 1, on), t(self.near_row[2], 2, on)];
+        let far = [t(self.far_row[0], 0, of), t(self.far_row[1], 1, of), t(self.far_row[2], 2, of)];
         let t_max = t_max.fast_min(f32x8::splat(f32::MAX));
         let mut hit = f32x8::forward(near, far, self.t_min_pos, t_max).1 & self.nonneg;
         if self.nonneg & self.active != self.active {

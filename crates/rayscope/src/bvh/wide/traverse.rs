@@ -241,7 +241,7 @@ where
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir));
+        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir), self.reach);
         let lanes = RayLanes::new(ray);
         let (t_min, mut t_max) = (ray.t.min, ray.t.max);
         let mut best = None;
@@ -407,7 +407,7 @@ where
         ray: &Ray,
         prims: &P,
     ) -> bool {
-        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir));
+        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir), self.reach);
         let lanes = RayLanes::new(ray);
         let (t_min, t_max) = (ray.t.min, ray.t.max);
         let mut stack: Stack<ChildRef> = Stack::new();
