@@ -202,7 +202,11 @@ fn write_exr(img: &FloatImage, w: &mut (impl Write + std::io::Seek)) -> std::io:
 
 /// Read a PFM file (as written by [`write_image`]) back, for tests and tools.
 pub fn read_pfm(path: &Path) -> Result<FloatImage> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_pfm(&std::fs::read(path).map_err(|e| Error::io(path, e))?, path)
+}
+
+/// Parse the bytes of a PFM file; `path` names it in errors.
+pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
     let bad = |m: &str| Error::parse(path, None, m.to_string());
     let mut fields = Vec::new();
     let mut pos = 0;

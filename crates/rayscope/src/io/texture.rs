@@ -9,8 +9,13 @@ use crate::math::Color;
 
 /// Load an image file as a texture; 8-bit values map to `[0, 1]` linearly, as in the course.
 pub fn load_texture(path: &Path) -> Result<Texture> {
-    let bytes = read_bytes(path)?;
-    let img = image::load_from_memory(&bytes)
+    decode_texture(&read_bytes(path)?, path)
+}
+
+/// Decode the bytes of an image file as a texture (the format is told by its magic bytes);
+/// `path` names it in errors.
+pub fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture> {
+    let img = image::load_from_memory(bytes)
         .map_err(|e| Error::parse(path, None, format!("cannot decode image: {e}")))?
         .to_rgb8();
     let (width, height) = img.dimensions();
