@@ -232,10 +232,14 @@ pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
     let width: u32 = fields[1].parse().map_err(|_| bad("bad width"))?;
     let height: u32 = fields[2].parse().map_err(|_| bad("bad height"))?;
     let scale: f32 = fields[3].parse().map_err(|_| bad("bad scale"))?;
-    let n = (width * height * channels) as usize;
-    if bytes.len() < pos + 4 * n {
+    // Sizes in u128, which no header's product overflows: the data must be in the file before
+    // anything is allocated or sliced for it.
+    let n = u128::from(width) * u128::from(height) * u128::from(channels);
+    let data_bytes = bytes.len().saturating_sub(pos) as u128;
+    if data_bytes / 4 < n {
         return Err(bad("truncated data"));
     }
+    let n = n as usize;
     let vals: Vec<f32> = bytes[pos..pos + 4 * n]
         .chunks_exact(4)
         .map(|c| {
@@ -243,7 +247,7 @@ pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
             if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
         })
         .collect();
-    let row = (width * channels) as usize;
+    let row = width as usize * channels as usize;
     let data = (0..height as usize).rev().flat_map(|y| vals[y * row..(y + 1) * row].to_vec()).collect();
     Ok(FloatImage { width, height, channels, data })
 }

@@ -1,7 +1,7 @@
 //! Image files: formats, atomic replacement, errors.
 
 use rayscope::film::FloatImage;
-use rayscope::output::{Encoding, read_pfm, to_rgb8, write_image};
+use rayscope::output::{Encoding, parse_pfm, read_pfm, to_rgb8, write_image};
 
 fn image() -> FloatImage {
     FloatImage { width: 3, height: 2, channels: 3, data: (0..18).map(|i| i as f32 / 10.0 - 0.2).collect() }
@@ -17,6 +17,19 @@ fn pfm_round_trips() {
     write_image(&grey, &p, Encoding::Linear).unwrap();
     let back = read_pfm(&p).unwrap();
     assert!(back.data[0].is_nan() && back.data[1..] == grey.data[1..]);
+}
+
+/// Found by the `image` fuzz target: a header whose width x height x channels overflowed u32
+/// panicked (with overflow checks) or wrapped to a small size and read the wrong pixels.
+#[test]
+fn pfm_sizes_past_u32_are_truncated_data_not_a_panic() {
+    let path = std::path::Path::new("big.pfm");
+    for header in ["PF\n1431655766 1\n-1\n", "Pf\n65536 65536\n-1\n", "PF\n4294967295 4294967295\n1\n"] {
+        let mut bytes = header.as_bytes().to_vec();
+        bytes.extend_from_slice(&[0; 64]);
+        let err = parse_pfm(&bytes, path).unwrap_err().to_string();
+        assert!(err.contains("truncated data"), "{header:?}: {err}");
+    }
 }
 
 #[test]
