@@ -223,7 +223,11 @@ pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
         }
         fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
     }
-    pos += 1;
+    // One whitespace byte ends the header: a file that stops at the scale is cut short.
+    if pos == bytes.len() {
+        return Err(bad("truncated header"));
+    }
+    let data = &bytes[pos + 1..];
     let channels = match fields[0].as_str() {
         "PF" => 3,
         "Pf" => 1,
@@ -235,12 +239,11 @@ pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
     // Sizes in u128, which no header's product overflows: the data must be in the file before
     // anything is allocated or sliced for it.
     let n = u128::from(width) * u128::from(height) * u128::from(channels);
-    let data_bytes = bytes.len().saturating_sub(pos) as u128;
-    if data_bytes / 4 < n {
+    if n > (data.len() / 4) as u128 {
         return Err(bad("truncated data"));
     }
     let n = n as usize;
-    let vals: Vec<f32> = bytes[pos..pos + 4 * n]
+    let vals: Vec<f32> = data[..4 * n]
         .chunks_exact(4)
         .map(|c| {
             let b = [c[0], c[1], c[2], c[3]];

@@ -32,6 +32,18 @@ fn pfm_sizes_past_u32_are_truncated_data_not_a_panic() {
     }
 }
 
+/// Found by the `image` fuzz target: a file that stopped right after the scale (with no pixels
+/// to read, "Pf 0 2 0") sliced its data from one byte past its end.
+#[test]
+fn a_pfm_header_without_its_last_whitespace_is_truncated_not_a_panic() {
+    let path = std::path::Path::new("cut.pfm");
+    for bytes in ["Pf\n0 2\n0", "PF 0 0 -1"] {
+        let err = parse_pfm(bytes.as_bytes(), path).unwrap_err().to_string();
+        assert!(err.contains("truncated header"), "{bytes:?}: {err}");
+    }
+    assert_eq!(parse_pfm(b"Pf 0 2 -1\n", path).unwrap().data, Vec::<f32>::new(), "an empty image is whole");
+}
+
 #[test]
 fn png_and_exr_are_written() {
     let dir = tempfile::tempdir().unwrap();
