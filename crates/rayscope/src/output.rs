@@ -250,7 +250,9 @@ pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
             if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
         })
         .collect();
+    // Rows are flipped in time proportional to the pixels: an empty image of 800 million rows
+    // (width 0) is read at once, not row by row.
     let row = width as usize * channels as usize;
-    let data = (0..height as usize).rev().flat_map(|y| vals[y * row..(y + 1) * row].to_vec()).collect();
+    let data = if row == 0 { Vec::new() } else { vals.chunks_exact(row).rev().flatten().copied().collect() };
     Ok(FloatImage { width, height, channels, data })
 }

@@ -44,6 +44,17 @@ fn a_pfm_header_without_its_last_whitespace_is_truncated_not_a_panic() {
     assert_eq!(parse_pfm(b"Pf 0 2 -1\n", path).unwrap().data, Vec::<f32>::new(), "an empty image is whole");
 }
 
+/// Found by the `image` fuzz target: an image 0 pixels wide and 800 million rows high took
+/// seconds (a loop over its empty rows); it reads at once.
+#[test]
+fn an_empty_pfm_of_many_rows_reads_at_once() {
+    let start = std::time::Instant::now();
+    let img = parse_pfm(b"Pf\n0\n4000000000\n-1\n", std::path::Path::new("tall.pfm")).unwrap();
+    assert_eq!((img.width, img.height, img.data.len()), (0, 4_000_000_000, 0));
+    // A guard against the hang, not a speed test: 43 s before the fix, microseconds after.
+    assert!(start.elapsed().as_secs_f64() < 1.0, "took {:?}", start.elapsed());
+}
+
 #[test]
 fn png_and_exr_are_written() {
     let dir = tempfile::tempdir().unwrap();
