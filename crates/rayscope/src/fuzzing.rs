@@ -99,7 +99,7 @@ pub fn obj_mtl(dir: &FuzzDir, input: &[u8]) -> Result<Scene> {
 }
 
 /// Scene file text (TOML), parsed and loaded as `rayscope render scene.toml` does, with the
-/// scene file in `dir` (so relative paths find the fixtures) and no asset folder.
+/// scene file and the asset folder in `dir` (so `path` and `asset` entries find the fixtures).
 pub fn scene_file(dir: &FuzzDir, input: &[u8]) -> Result<Scene> {
     let path = dir.path().join("fuzz.toml");
     let text = std::str::from_utf8(input).map_err(|_| Error::parse(&path, None, "not UTF-8"))?;
