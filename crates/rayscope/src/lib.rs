@@ -32,9 +32,12 @@ pub mod scene;
 pub mod settings;
 
 // The layers under the surface: public only for the benches, the tests, the CLI's `bench`
-// command (the BVH) and the viewer (rays, lights, vectors), not documented as the library's.
+// command (the BVH), the viewer (rays, lights, vectors) and the fuzz targets (`fuzzing`), not
+// documented as the library's.
 #[doc(hidden)]
 pub mod bvh;
+#[doc(hidden)]
+pub mod fuzzing;
 #[doc(hidden)]
 pub mod geometry;
 #[doc(hidden)]

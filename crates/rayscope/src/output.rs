@@ -202,7 +202,11 @@ fn write_exr(img: &FloatImage, w: &mut (impl Write + std::io::Seek)) -> std::io:
 
 /// Read a PFM file (as written by [`write_image`]) back, for tests and tools.
 pub fn read_pfm(path: &Path) -> Result<FloatImage> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_pfm(&std::fs::read(path).map_err(|e| Error::io(path, e))?, path)
+}
+
+/// Parse the bytes of a PFM file; `path` names it in errors.
+pub fn parse_pfm(bytes: &[u8], path: &Path) -> Result<FloatImage> {
     let bad = |m: &str| Error::parse(path, None, m.to_string());
     let mut fields = Vec::new();
     let mut pos = 0;
@@ -219,7 +223,11 @@ pub fn read_pfm(path: &Path) -> Result<FloatImage> {
         }
         fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
     }
-    pos += 1;
+    // One whitespace byte ends the header: a file that stops at the scale is cut short.
+    if pos == bytes.len() {
+        return Err(bad("truncated header"));
+    }
+    let data = &bytes[pos + 1..];
     let channels = match fields[0].as_str() {
         "PF" => 3,
         "Pf" => 1,
@@ -228,18 +236,23 @@ pub fn read_pfm(path: &Path) -> Result<FloatImage> {
     let width: u32 = fields[1].parse().map_err(|_| bad("bad width"))?;
     let height: u32 = fields[2].parse().map_err(|_| bad("bad height"))?;
     let scale: f32 = fields[3].parse().map_err(|_| bad("bad scale"))?;
-    let n = (width * height * channels) as usize;
-    if bytes.len() < pos + 4 * n {
+    // Sizes in u128, which no header's product overflows: the data must be in the file before
+    // anything is allocated or sliced for it.
+    let n = u128::from(width) * u128::from(height) * u128::from(channels);
+    if n > (data.len() / 4) as u128 {
         return Err(bad("truncated data"));
     }
-    let vals: Vec<f32> = bytes[pos..pos + 4 * n]
+    let n = n as usize;
+    let vals: Vec<f32> = data[..4 * n]
         .chunks_exact(4)
         .map(|c| {
             let b = [c[0], c[1], c[2], c[3]];
             if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
         })
         .collect();
-    let row = (width * channels) as usize;
-    let data = (0..height as usize).rev().flat_map(|y| vals[y * row..(y + 1) * row].to_vec()).collect();
+    // Rows are flipped in time proportional to the pixels: an empty image of 800 million rows
+    // (width 0) is read at once, not row by row.
+    let row = width as usize * channels as usize;
+    let data = if row == 0 { Vec::new() } else { vals.chunks_exact(row).rev().flatten().copied().collect() };
     Ok(FloatImage { width, height, channels, data })
 }

@@ -1,7 +1,7 @@
 //! Image files: formats, atomic replacement, errors.
 
 use rayscope::film::FloatImage;
-use rayscope::output::{Encoding, read_pfm, to_rgb8, write_image};
+use rayscope::output::{Encoding, parse_pfm, read_pfm, to_rgb8, write_image};
 
 fn image() -> FloatImage {
     FloatImage { width: 3, height: 2, channels: 3, data: (0..18).map(|i| i as f32 / 10.0 - 0.2).collect() }
@@ -17,6 +17,41 @@ fn pfm_round_trips() {
     write_image(&grey, &p, Encoding::Linear).unwrap();
     let back = read_pfm(&p).unwrap();
     assert!(back.data[0].is_nan() && back.data[1..] == grey.data[1..]);
+}
+
+/// Found by the `image` fuzz target: a header whose width x height x channels overflowed u32
+/// panicked (with overflow checks) or wrapped to a small size and read the wrong pixels.
+#[test]
+fn pfm_sizes_past_u32_are_truncated_data_not_a_panic() {
+    let path = std::path::Path::new("big.pfm");
+    for header in ["PF\n1431655766 1\n-1\n", "Pf\n65536 65536\n-1\n", "PF\n4294967295 4294967295\n1\n"] {
+        let mut bytes = header.as_bytes().to_vec();
+        bytes.extend_from_slice(&[0; 64]);
+        let err = parse_pfm(&bytes, path).unwrap_err().to_string();
+        assert!(err.contains("truncated data"), "{header:?}: {err}");
+    }
+}
+
+/// Found by the `image` fuzz target: a file that stopped right after the scale (with no pixels
+/// to read, "Pf 0 2 0") sliced its data from one byte past its end.
+#[test]
+fn a_pfm_header_without_its_last_whitespace_is_truncated_not_a_panic() {
+    let path = std::path::Path::new("cut.pfm");
+    for bytes in ["Pf\n0 2\n0", "PF 0 0 -1"] {
+        let err = parse_pfm(bytes.as_bytes(), path).unwrap_err().to_string();
+        assert!(err.contains("truncated header"), "{bytes:?}: {err}");
+    }
+    assert_eq!(parse_pfm(b"Pf 0 2 -1\n", path).unwrap().data, Vec::<f32>::new(), "an empty image is whole");
+}
+
+/// Found by the `image` fuzz target: an image 0 pixels wide and 800 million rows high took
+/// seconds (a loop over its empty rows); it reads at once.
+#[test]
+fn an_empty_pfm_of_many_rows_reads_at_once() {
+    // Rows are no longer flipped one by one: before the fix this test ran for 43 s (it asserts
+    // the result, not the time; a return of the hang shows as a test that does not finish).
+    let img = parse_pfm(b"Pf\n0\n4000000000\n-1\n", std::path::Path::new("tall.pfm")).unwrap();
+    assert_eq!((img.width, img.height, img.data.len()), (0, 4_000_000_000, 0));
 }
 
 #[test]
