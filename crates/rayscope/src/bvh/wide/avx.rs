@@ -15,7 +15,6 @@ use crate::ray::Ray;
 /// The 8-wide slab test in AVX2 (`std::arch`): one 256-bit instruction per step. Made only
 /// with an [`Avx2`] token.
 pub struct Avx2Node8 {
-    cpu: Avx2,
     inv: [std::arch::x86_64::__m256; 3],
     /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
     oinv_near: [std::arch::x86_64::__m256; 3],
@@ -30,7 +29,7 @@ impl NodeTest<8> for Avx2Node8 {
     // Not `target_feature` functions themselves: those would stay out-of-line calls in the
     // traversal compiled for AVX2, where these inline.
     #[inline(always)]
-    fn new(cpu: Avx2, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
+    fn new(_: Avx2, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
         use std::arch::x86_64::_mm256_set1_ps;
         let (near, far) = planes(inv);
         let o = SlabOrigin::new(ray.origin, inv, reach);
@@ -41,7 +40,7 @@ impl NodeTest<8> for Avx2Node8 {
             };
         }
         // SAFETY: the token proves that the CPU has AVX2.
-        unsafe { Avx2Node8 { cpu, inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
+        unsafe { Avx2Node8 { inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
     }
 
     #[inline(always)]
@@ -84,8 +83,8 @@ impl NodeTest<8> for Avx2Node8 {
     }
 
     #[inline(always)]
-    fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        intersect_pair_avx2(self.cpu, r, a, b, t_min, t_max)
+    fn intersect_pair(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        intersect_pair_avx2(cpu, r, a, b, t_min, t_max)
     }
 }
 
@@ -169,8 +168,6 @@ pub(super) fn intersect_pair_avx2(_: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_m
 /// The 16-wide slab test in AVX-512 (`std::arch`): one 512-bit instruction per step, with
 /// the 8-wide AVX2 test's triangle test. Made only with an [`Avx512`] token.
 pub struct Avx512Node16 {
-    /// For the leaves' test ([`intersect_pair_avx2`]).
-    cpu: Avx2,
     inv: [std::arch::x86_64::__m512; 3],
     /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
     oinv_near: [std::arch::x86_64::__m512; 3],
@@ -183,7 +180,7 @@ impl NodeTest<16> for Avx512Node16 {
     type Cpu = Avx512;
 
     #[inline(always)]
-    fn new(cpu: Avx512, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
+    fn new(_: Avx512, ray: &Ray, inv: Vec3A, reach: f32) -> Self {
         use std::arch::x86_64::_mm512_set1_ps;
         let (near, far) = planes(inv);
         let o = SlabOrigin::new(ray.origin, inv, reach);
@@ -194,16 +191,7 @@ impl NodeTest<16> for Avx512Node16 {
             };
         }
         // SAFETY: the token proves that the CPU has AVX-512 F.
-        unsafe {
-            Avx512Node16 {
-                cpu: cpu.into(),
-                inv: splat!(inv),
-                oinv_near: splat!(o.near),
-                oinv_far: splat!(o.far),
-                near,
-                far,
-            }
-        }
+        unsafe { Avx512Node16 { inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
     }
 
     #[inline(always)]
@@ -245,7 +233,7 @@ impl NodeTest<16> for Avx512Node16 {
     }
 
     #[inline(always)]
-    fn intersect_pair(&self, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        intersect_pair_avx2(self.cpu, r, a, b, t_min, t_max)
+    fn intersect_pair(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        intersect_pair_avx2(cpu.into(), r, a, b, t_min, t_max)
     }
 }

@@ -400,7 +400,7 @@ where
 
         // Each ray's leaf-test set-up, made when the ray first reaches a leaf (rays that miss
         // everything never need one).
-        let mut singles: [std::mem::MaybeUninit<(T, RayLanes)>; PACKET] =
+        let mut singles: [std::mem::MaybeUninit<RayLanes>; PACKET] =
             [const { std::mem::MaybeUninit::uninit() }; PACKET];
         let mut made = 0u32;
 
@@ -414,13 +414,20 @@ where
                     lanes &= lanes - 1;
                     let r = &rays[lane];
                     if made & 1 << lane == 0 {
-                        singles[lane].write((T::new(leaf_cpu, r, invs[lane], self.reach), RayLanes::new(r)));
+                        singles[lane].write(RayLanes::new(r));
                         made |= 1 << lane;
                     }
                     // SAFETY: written above, or earlier as `made` records.
-                    let (boxes, splat) = unsafe { singles[lane].assume_init_ref() };
-                    let one = OneRay { ray: r, boxes, lanes: splat };
-                    self.leaf_closest(current.child, &one, prims, &mut NoObserver, &mut t_max[lane], &mut hits[lane]);
+                    let splat = unsafe { singles[lane].assume_init_ref() };
+                    let one = OneRay { ray: r, cpu: leaf_cpu, lanes: splat };
+                    self.leaf_closest::<T, P, NoObserver>(
+                        current.child,
+                        &one,
+                        prims,
+                        &mut NoObserver,
+                        &mut t_max[lane],
+                        &mut hits[lane],
+                    );
                 }
                 t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {

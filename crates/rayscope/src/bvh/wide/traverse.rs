@@ -24,9 +24,9 @@ pub(super) fn ray_is_finite(ray: &Ray) -> bool {
 
 /// One ray made ready for leaf tests: the ray, its node test (which also runs the two-block
 /// triangle test) and its four-lane splat.
-pub(super) struct OneRay<'a, T> {
+pub(super) struct OneRay<'a, C> {
     pub(super) ray: &'a Ray,
-    pub(super) boxes: &'a T,
+    pub(super) cpu: C,
     pub(super) lanes: &'a RayLanes,
 }
 
@@ -251,8 +251,8 @@ where
         let mut current = ChildRef::ROOT;
         loop {
             if current.is_leaf() {
-                let one = OneRay { ray, boxes: &boxes, lanes: &lanes };
-                self.leaf_closest(current, &one, prims, obs, &mut t_max, &mut best);
+                let one = OneRay { ray, cpu, lanes: &lanes };
+                self.leaf_closest::<T, P, O>(current, &one, prims, obs, &mut t_max, &mut best);
             } else {
                 let node = &self.nodes[current.node_index() as usize];
                 obs.entered(current.node_index());
@@ -317,7 +317,7 @@ where
     pub(super) fn leaf_closest<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         leaf: ChildRef,
-        one: &OneRay<'_, T>,
+        one: &OneRay<'_, T::Cpu>,
         prims: &P,
         obs: &mut O,
         t_max: &mut f32,
@@ -336,7 +336,7 @@ where
                 if lanes == 0xff {
                     obs.prim_tested();
                 }
-                let (mask, t, u, v) = one.boxes.intersect_pair(one.lanes, a, b, t_min, *t_max);
+                let (mask, t, u, v) = T::intersect_pair(one.cpu, one.lanes, a, b, t_min, *t_max);
                 let hits = Hits { mask: mask & lanes, t: &t, u: &u, v: &v };
                 hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
             }
@@ -415,7 +415,7 @@ where
         loop {
             if current.is_packed() {
                 for (a, b, pair_lanes) in self.block_pairs(current) {
-                    if boxes.intersect_pair(&lanes, a, b, t_min, t_max).0 & pair_lanes != 0 {
+                    if T::intersect_pair(cpu, &lanes, a, b, t_min, t_max).0 & pair_lanes != 0 {
                         return true;
                     }
                 }
