@@ -133,7 +133,7 @@ fn the_terms_sum_to_the_rendered_pixel() {
     let mut cases = scenes("the_terms_sum_to_the_rendered_pixel");
     cases.push(("cornell-box, moving camera", moving_camera()));
     for (name, scene) in &cases {
-        for _ in 0..6 {
+        for _ in 0..10 {
             let s = random_settings(&mut rng);
             let film = render(scene, &s, &|_| {}).film;
             for _ in 0..5 {

@@ -90,8 +90,12 @@ pub struct Term {
     /// The term at its ray: for a light, `1 / points` times the sum over its points of the
     /// renderer's products.
     pub value: Color,
-    /// How the term reaches the sample: the ray's weight, times the opacity `d` of its
-    /// surface when that surface blends with a transmission ray.
+    /// The weight of its ray.
+    pub ray_weight: Color,
+    /// The opacity `d` of the ray's surface when that surface blends with a transmission ray
+    /// (its own light is scaled by `d`).
+    pub opacity: Option<f32>,
+    /// How the term reaches the sample: `ray_weight`, times `opacity` when there is one.
     pub path_weight: Color,
     /// The sample's share of the pixel.
     pub sample_weight: f32,
@@ -225,7 +229,9 @@ fn ray_weight(sample: &SampleTrace, i: usize) -> RayWeight {
 /// Push the terms of ray `i` of `sample`.
 fn sample_terms(sample: &SampleTrace, i: usize, ray: &RecordedRay, out: &mut Vec<Term>) {
     let weight = Color::from(ray.weight);
-    let term = |light, kind, material, lights, value: Color, path_weight: Color| Term {
+    let opacity = ray.surface.and_then(|s| s.opacity);
+    let path_weight = weight * opacity.unwrap_or(1.0);
+    let term = |light, kind, material, lights, value: Color| Term {
         sample: sample.index,
         ray: i,
         light,
@@ -233,21 +239,22 @@ fn sample_terms(sample: &SampleTrace, i: usize, ray: &RecordedRay, out: &mut Vec
         material,
         lights,
         value,
+        ray_weight: weight,
+        opacity,
         path_weight,
         sample_weight: sample.weight,
         contribution: value * path_weight * sample.weight,
     };
     let color = Color::from(ray.color);
     if ray.hit.is_none() {
-        out.push(term(None, TermKind::Background, color, None, color, weight));
+        out.push(term(None, TermKind::Background, color, None, color));
         return;
     }
     let Some(surface) = ray.surface else {
         // No shading factors reported for a hit: shading is off and the ray returned `kd`.
-        out.push(term(None, TermKind::UnshadedKd, color, None, color, weight));
+        out.push(term(None, TermKind::UnshadedKd, color, None, color));
         return;
     };
-    let path_weight = weight * surface.opacity.unwrap_or(1.0);
     for light in lights_in_order(ray) {
         let points: Vec<&LightTerm> = ray.light_terms.iter().filter(|t| t.light == light).collect();
         let skipped = ray.skipped_lights.iter().filter(|s| s.light == light).count() as u32;
@@ -270,17 +277,10 @@ fn sample_terms(sample: &SampleTrace, i: usize, ray: &RecordedRay, out: &mut Vec
         let sum = |f: &dyn Fn(&LightTerm) -> Color| points.iter().map(|t| f(t)).sum::<Color>() / n.max(1) as f32;
         let kd = points.first().map_or(Color::ZERO, |t| t.kd);
         let diffuse = factors(&|t| t.cos);
-        out.push(term(Some(light), TermKind::Diffuse, kd, Some(diffuse), sum(&|t| t.diffuse), path_weight));
+        out.push(term(Some(light), TermKind::Diffuse, kd, Some(diffuse), sum(&|t| t.diffuse)));
         if surface.ks != Color::ZERO && shaded > 0 {
             let specular = factors(&|t| t.highlight);
-            out.push(term(
-                Some(light),
-                TermKind::Specular,
-                surface.ks,
-                Some(specular),
-                sum(&|t| t.specular),
-                path_weight,
-            ));
+            out.push(term(Some(light), TermKind::Specular, surface.ks, Some(specular), sum(&|t| t.specular)));
         }
     }
 }
@@ -315,6 +315,9 @@ impl Term {
     /// The factors that make its value, in words: `kd 0.8 x cos 0.71 x light 1 x shadow 3/4`.
     pub fn factors_text(&self) -> String {
         match (self.kind, &self.lights) {
+            (TermKind::Diffuse | TermKind::Specular, Some(l)) if l.shaded == 0 => {
+                format!("no light: all {} behind the surface", l.points)
+            }
             (TermKind::Diffuse | TermKind::Specular, Some(l)) => {
                 let (m, f) = if self.kind == TermKind::Diffuse { ("kd", "cos") } else { ("ks", "highlight") };
                 let mean = if l.shaded > 1 { "mean " } else { "" };
@@ -326,6 +329,11 @@ impl Term {
                     l.reached,
                     l.points
                 );
+                // Through transparent surfaces a shadow ray lets a fraction through.
+                let all_or_nothing = Color::splat(l.reached as f32 / l.shaded.max(1) as f32);
+                if l.arrived != all_or_nothing {
+                    s += &format!(" ({mean}arrived {})", rgb(l.arrived));
+                }
                 if l.shaded < l.points {
                     s += &format!(" ({} behind the surface)", l.points - l.shaded);
                 }
@@ -381,11 +389,13 @@ impl Explanation {
                 rows.push((format!("sample {} (weighs {})", ray.sample, num(w)), String::new(), String::new()));
             }
             let of = ray.parent.map_or(String::new(), |p| format!(" of ray {p}"));
-            let made = if ray.factors.is_empty() {
-                String::new()
-            } else {
-                let f: Vec<String> = ray.factors.iter().map(|f| f.to_string()).collect();
-                format!(" = {}", f.join(" x "))
+            let parent = ray.parent.and_then(|p| self.rays.iter().find(|r| r.sample == ray.sample && r.ray == p));
+            let made = match parent {
+                Some(p) if !ray.factors.is_empty() => {
+                    let f: Vec<String> = ray.factors.iter().map(|f| f.to_string()).collect();
+                    format!(" = ray {}'s {} x {}", p.ray, rgb(p.weight), f.join(" x "))
+                }
+                _ => String::new(),
             };
             rows.push((
                 format!("  ray {} {}{of}: weight {}{made}", ray.ray, ray.kind.noun(), rgb(ray.weight)),
@@ -401,9 +411,10 @@ impl Explanation {
                     format!("    {}{light}", t.kind.name()),
                     t.factors_text(),
                     format!(
-                        "= {} x weight {} x {} = {}",
+                        "= {} x weight {}{} x {} = {}",
                         rgb(t.value),
-                        rgb(t.path_weight),
+                        rgb(t.ray_weight),
+                        t.opacity.map_or(String::new(), |d| format!(" x d {}", num(d))),
                         num(t.sample_weight),
                         rgb(t.contribution)
                     ),
