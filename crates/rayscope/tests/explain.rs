@@ -229,3 +229,16 @@ fn exported_rays_reload_with_every_segment() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The debugger names every hit's material: from the MTL's `newmtl`, the scene file, or the
+/// sphere it belongs to.
+#[test]
+fn materials_are_named() {
+    let names = |scene: &str| builtin_scene(scene, None).materials.iter().map(|m| m.name.clone()).collect::<Vec<_>>();
+    assert!(names("cornell-box").contains(&"tallBox".to_string()), "{:?}", names("cornell-box"));
+    assert!(
+        names("spheres").ends_with(&["sphere 0".into(), "sphere 1".into(), "sphere 2".into()]),
+        "{:?}",
+        names("spheres")
+    );
+}

@@ -428,8 +428,9 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         }
     }
     let mut spheres = Vec::new();
-    for s in &desc.spheres {
-        let mut m = Material::default();
+    for (i, s) in desc.spheres.iter().enumerate() {
+        // Named for the debugger when the file names it not: "sphere 2", not "default".
+        let mut m = Material { name: format!("sphere {i}"), ..Material::default() };
         apply_override(&mut m, &s.material, &mut textures, &ctx.base_dir)?;
         materials.push(m);
         spheres.push(SceneSphere {
