@@ -117,6 +117,18 @@ fn sums_to_value(trace: &PixelTrace) -> Result<(), String> {
     if !e.complete {
         return Err("tree cut".into());
     }
+    // For a light shaded from one point, the factors shown multiply to the term.
+    for t in &e.terms {
+        if let Some(l) = t.lights.filter(|l| l.points == 1 && l.shaded == 1) {
+            let product = t.material * l.factor * l.light_color * l.arrived;
+            if (product - t.value).abs().max_element() > 1e-6 * (1.0 + t.value.max_element()) {
+                return Err(format!(
+                    "{:?} term of ray {}: factors give {product:?}, value {:?}",
+                    t.kind, t.ray, t.value
+                ));
+            }
+        }
+    }
     let scale: Color = e.terms.iter().map(|t| t.contribution.abs()).sum::<Color>().max(e.value.abs());
     let err = (e.sum - e.value).abs();
     if (err - (scale * 1e-4 + Color::splat(1e-6))).max_element() > 0.0 {
