@@ -13,6 +13,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod bench;
+mod compare;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -52,6 +53,10 @@ enum Command {
     },
     /// Trace one pixel and print its ray tree as JSON.
     Debug(DebugArgs),
+    /// Compare an image (yours) with rayscope's render of the same scene and settings: how
+    /// many pixels differ, by how much, SSIM, and a difference image. Exit status 0 when no
+    /// pixel differs, 1 when some do, 2 on trouble.
+    Compare(compare::CompareArgs),
     /// Measure the course report's performance table on this machine.
     Bench(BenchArgs),
     /// Open the viewer and visual debugger (needs the `viewer` feature: `cargo run -p
@@ -109,9 +114,14 @@ struct ViewArgs {
     /// sooner (the heat map is one frame).
     #[arg(long, default_value_t = 1, value_name = "N")]
     frames: u32,
-    /// The view to start in.
+    /// The view to start in (theirs, ours and difference need --compare).
     #[arg(long, value_enum, default_value = "raster")]
     view: ViewArg,
+    /// Compare this image (PNG, BMP, OpenEXR) with our render of the scene, as `rayscope
+    /// compare` does: adds the views theirs, ours and difference; rendered at its size unless
+    /// --width/--height say otherwise.
+    #[arg(long, value_name = "THEIRS")]
+    compare: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -119,6 +129,9 @@ enum ViewArg {
     Raster,
     Traced,
     HeatMap,
+    Theirs,
+    Ours,
+    Difference,
 }
 
 #[derive(Args)]
@@ -302,13 +315,19 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 pub const EXIT_INTERRUPTED: u8 = 130;
 
 /// Run the command line on the process's arguments: 0 when done, 130 for a render stopped by
-/// Ctrl-C, 1 (after printing the error) on failure.
+/// Ctrl-C, 1 (after printing the error) on failure; `compare` follows `diff` instead (0 the
+/// same, 1 different, 2 on failure).
 pub fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    let failure = match cli.command {
+        Command::Compare(_) => ExitCode::from(compare::EXIT_TROUBLE),
+        _ => ExitCode::FAILURE,
+    };
+    match run(cli) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {}", message(&e));
-            ExitCode::FAILURE
+            failure
         }
     }
 }
@@ -337,6 +356,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Render(args) => cmd_render(args),
         Command::Scenes { export } => done(cmd_scenes(export)),
         Command::Debug(args) => done(cmd_debug(args)),
+        Command::Compare(args) => compare::cmd_compare(args),
         Command::Bench(args) => done(cmd_bench(args)),
         Command::View(args) => done(cmd_view(args)),
     }
@@ -537,7 +557,7 @@ fn cmd_view(_: ViewArgs) -> Result<()> {
 }
 
 #[cfg(feature = "viewer")]
-fn cmd_view(args: ViewArgs) -> Result<()> {
+fn cmd_view(mut args: ViewArgs) -> Result<()> {
     use rayscope_viewer::session;
     use rayscope_viewer::state::ViewKind;
     // First, while this is the only thread: a private runtime dir where the session has none,
@@ -546,13 +566,22 @@ fn cmd_view(args: ViewArgs) -> Result<()> {
     // SAFETY: no other thread exists yet (rayon's pool starts with the scene's BVH build below).
     unsafe { session::quiet_wayland_probe(runtime.path()) }?;
     session::check_display()?;
+    if let Some(theirs) = &args.compare {
+        compare::size_from(theirs, &mut args.scene.settings)?;
+    }
     // Check the scene and flags here, so that mistakes are reported on the terminal.
     let (_, settings) = load(&args.scene)?;
     let view = match args.view {
         ViewArg::Raster => ViewKind::Raster,
         ViewArg::Traced => ViewKind::RayTraced,
         ViewArg::HeatMap => ViewKind::HeatMap,
+        ViewArg::Theirs => ViewKind::Theirs,
+        ViewArg::Ours => ViewKind::Ours,
+        ViewArg::Difference => ViewKind::Difference,
     };
+    if matches!(view, ViewKind::Theirs | ViewKind::Ours | ViewKind::Difference) && args.compare.is_none() {
+        bail!("--view theirs, ours and difference need an image to compare: --compare THEIRS.png");
+    }
     rayscope_viewer::run(rayscope_viewer::ViewerOptions {
         scene: args.scene.scene.clone(),
         assets: args.scene.assets.clone(),
@@ -564,6 +593,7 @@ fn cmd_view(args: ViewArgs) -> Result<()> {
         bvh_only_visited: args.bvh_visited,
         screenshot: args.screenshot,
         frames: args.frames,
+        compare: args.compare,
     })
 }
 

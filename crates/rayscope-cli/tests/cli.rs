@@ -3,18 +3,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-fn rayscope(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rayscope"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("RAYSCOPE_ASSETS")
-        .output()
-        .unwrap()
-}
+mod common;
 
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{rayscope, stderr};
 
 #[test]
 fn default_render_works_anywhere() {

@@ -49,6 +49,8 @@ pub struct ViewerOptions {
     /// Frames to render before the screenshot; fewer when the image is complete sooner (the
     /// heat map is one frame; dynamic accumulation stops at its maximum samples).
     pub frames: u32,
+    /// An image to compare with ours (see [`crate::compare`]).
+    pub compare: Option<PathBuf>,
 }
 
 /// Open the viewer window; returns when it closes (or, with a screenshot, once it is saved).
@@ -117,6 +119,9 @@ impl RayscopeApp {
         let mut state = ViewerState::new(&spec, opts.assets.clone());
         if let Some(s) = opts.settings.clone() {
             state.set_settings(s);
+        }
+        if let Some(path) = &opts.compare {
+            state.load_compare(path);
         }
         if let Some(v) = opts.view {
             state.view = v;
@@ -278,6 +283,13 @@ impl RayscopeApp {
                 ui.selectable_value(&mut st.view, ViewKind::HeatMap, "Heat map")
                     .on_hover_text("BVH node boxes each camera ray tested: blue fewest, red most");
             });
+            if st.compare.is_some() {
+                ui.horizontal(|ui| {
+                    for (view, label, tip) in crate::compare::COMPARE_VIEWS {
+                        ui.selectable_value(&mut st.view, view, label).on_hover_text(tip);
+                    }
+                });
+            }
             if st.view == ViewKind::HeatMap
                 && let Some(scale) = self.last_frame.as_ref().and_then(|f| f.heat)
             {
@@ -395,6 +407,11 @@ impl RayscopeApp {
                 });
             }
         });
+        if let Some(c) = &st.compare
+            && c.panel(ui, st.selection.as_ref().map(|s| s.pixel), &st.settings)
+        {
+            st.recompare();
+        }
         let mut clear = false;
         if let Some(sel) = &st.selection {
             egui::CollapsingHeader::new(format!("Ray tree ({})", counted(sel.tree.rays.len() as u64, "ray", "rays")))
@@ -500,10 +517,11 @@ impl RayscopeApp {
                     );
                 }
             },
-            ViewKind::RayTraced | ViewKind::HeatMap => {
+            view => {
                 painter.rect_filled(rect, 0.0, Color32::BLACK);
-                if let Some(t) = &self.traced {
-                    painter.image(t.id(), rect, uv, Color32::WHITE);
+                let compared = self.state.compare.as_mut().and_then(|c| c.texture(ui.ctx(), view));
+                if let Some(id) = compared.or(self.traced.as_ref().map(|t| t.id())) {
+                    painter.image(id, rect, uv, Color32::WHITE);
                 } else {
                     painter.text(
                         rect.center(),
@@ -531,7 +549,7 @@ impl RayscopeApp {
         if response.clicked()
             && let Some(p) = response.interact_pointer_pos().and_then(|pos| self.state.pixel_at(pos, rect))
         {
-            self.state.select_pixel(p.0, p.1);
+            self.state.click_pixel(p.0, p.1);
         }
         let delta = response.drag_delta();
         if response.dragged_by(PointerButton::Secondary) || (response.dragged_by(PointerButton::Primary) && shift) {

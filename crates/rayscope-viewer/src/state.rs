@@ -32,6 +32,12 @@ pub enum ViewKind {
     RayTraced,
     /// BVH nodes visited per pixel.
     HeatMap,
+    /// With `--compare`: their image (see [`crate::compare`]).
+    Theirs,
+    /// With `--compare`: our render compared with it.
+    Ours,
+    /// With `--compare`: the difference image.
+    Difference,
 }
 
 /// The imaging mode as the panel offers it.
@@ -104,6 +110,8 @@ pub struct ViewerState {
     pub show_light_samples: bool,
     /// Bumped whenever the accumulation must restart.
     pub generation: u64,
+    /// An image compared with ours (`--compare`), and its views.
+    pub compare: Option<crate::compare::CompareViews>,
 }
 
 impl ViewerState {
@@ -127,6 +135,7 @@ impl ViewerState {
             bvh_only_visited: false,
             show_light_samples: true,
             generation: 0,
+            compare: None,
         };
         s.load_scene(spec);
         s

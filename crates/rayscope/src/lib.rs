@@ -4,8 +4,9 @@
 //! loaded (from a file, an OBJ or a built-in) and seen through a [`camera`]; [`settings`] say
 //! how to render it; [`render`] makes an image into a [`film`] (and traces single pixels for
 //! the debugger, whose rays [`record`] keeps; [`debug`] traces every sample of a pixel and
-//! explains its colour), [`progressive`] accumulates frames, [`aov`]
-//! renders per-pixel facts of the first hits, and [`output`] writes images. The CLI and the
+//! explains its colour), [`progressive`] accumulates frames, [`aov`] renders per-pixel facts of
+//! the first hits, [`output`] writes images, and [`compare`] measures how another image differs
+//! from a render. The CLI and the
 //! viewer only map their inputs onto these types.
 //!
 //! ```
@@ -24,6 +25,7 @@
 
 pub mod aov;
 pub mod camera;
+pub mod compare;
 pub mod debug;
 pub mod film;
 pub mod output;

@@ -148,7 +148,8 @@ fn os_error(e: std::io::Error) -> std::io::Error {
     }
 }
 
-fn to_u8(v: f32, encoding: Encoding) -> u8 {
+/// The 8-bit level of a linear value `v` (NaN is 0), as the PNG writer stores it.
+pub(crate) fn to_u8(v: f32, encoding: Encoding) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
     let v = match encoding {
         Encoding::Linear => v,

@@ -1,11 +1,13 @@
 //! Reading course files: OBJ meshes ([`obj`]), their MTL material libraries ([`mtl`]) and
-//! texture images ([`texture`]), each through [`file`], which reads only regular files and no
+//! texture images ([`texture`], decoded by [`image_file`], which `rayscope compare` reads
+//! images with too), each through [`file`], which reads only regular files and no
 //! more than a set number of bytes, the text files line by line ([`lines`]). Before a mesh is
 //! read, the memory it will need is reserved once ([`memory`]); exact duplicate faces are
 //! dropped ([`duplicates`]). Both hash vertex indices with [`index_hash`].
 
 pub mod duplicates;
 pub mod file;
+pub mod image_file;
 pub mod index_hash;
 pub mod lines;
 pub mod memory;
