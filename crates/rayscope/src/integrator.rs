@@ -317,10 +317,7 @@ impl<'a> Integrator<'a> {
         // nothing; no shadow ray is needed to know that.
         if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
             if R::RECORDS {
-                let reason = SkipReason::of(cos, si.geo_normal.dot(ls.wi), ls.distance);
-                if let Some(reason) = reason {
-                    ctx.recorder.light_skipped(&SkippedLight { light: point.light, to: ls.point, reason });
-                }
+                record_skip(si, point, ls, cos, ctx);
             }
             return Color::ZERO;
         }
@@ -339,7 +336,10 @@ impl<'a> Integrator<'a> {
     }
 
     /// Tell the recorder the terms of a shaded light point, as [`Integrator::shade_sample`]
-    /// computes them.
+    /// computes them. Out of line and cold: only the debugger runs it, and it stays out of the
+    /// renderer's light loop.
+    #[cold]
+    #[inline(never)]
     #[allow(clippy::too_many_arguments, reason = "the shading state of one light point, for the debugger only")]
     fn record_term<R: RayRecorder>(
         &self,
@@ -417,6 +417,22 @@ impl<'a> Integrator<'a> {
             });
         }
         t
+    }
+}
+
+/// Tell the recorder that light point `ls` was skipped, and why (see
+/// [`Integrator::record_term`] for why it is out of line).
+#[cold]
+#[inline(never)]
+fn record_skip<R: RayRecorder>(
+    si: &SurfaceInteraction,
+    point: LightPoint,
+    ls: &LightSample,
+    cos: f32,
+    ctx: &mut PathContext<R>,
+) {
+    if let Some(reason) = SkipReason::of(cos, si.geo_normal.dot(ls.wi), ls.distance) {
+        ctx.recorder.light_skipped(&SkippedLight { light: point.light, to: ls.point, reason });
     }
 }
 
