@@ -328,11 +328,10 @@ impl<'a> Integrator<'a> {
             }
             return Color::ZERO;
         }
-        let phong = self.phong(si, ls.wi, -ray.dir, cos);
         if R::RECORDS {
             self.record_term(ray, si, point, ls, cos, arrived, ctx);
         }
-        arrived * ls.color * (phong.diffuse + phong.specular)
+        arrived * ls.color * self.phong(si, ls.wi, -ray.dir, cos)
     }
 
     /// Tell the recorder the terms of a shaded light point, as [`Integrator::shade_sample`]
@@ -351,7 +350,7 @@ impl<'a> Integrator<'a> {
         arrived: Color,
         ctx: &mut PathContext<R>,
     ) {
-        let phong = self.phong(si, ls.wi, -ray.dir, cos);
+        let phong = self.phong_terms(si, ls.wi, -ray.dir, cos);
         let light = arrived * ls.color;
         ctx.recorder.light_term(&LightTerm {
             light: point.light,
@@ -368,10 +367,22 @@ impl<'a> Integrator<'a> {
         });
     }
 
-    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`, as its two
-    /// terms (the renderer adds them; the debugger shows them apart).
+    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`.
     #[inline]
-    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
+    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Color {
+        let mat = &self.scene.materials[si.material as usize];
+        let diffuse = si.kd * cos;
+        let r = reflect(-wi, si.shading_normal);
+        let spec = r.dot(view).max(0.0);
+        let specular =
+            if mat.ks == Color::ZERO || spec == 0.0 { Color::ZERO } else { mat.ks * spec.powf(mat.shininess) };
+        diffuse + specular
+    }
+
+    /// [`Integrator::phong`]'s two terms apart, and the highlight factor (the renderer adds
+    /// the terms; the debugger shows them apart).
+    #[inline]
+    fn phong_terms(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
         let mat = &self.scene.materials[si.material as usize];
         let diffuse = si.kd * cos;
         let r = reflect(-wi, si.shading_normal);
