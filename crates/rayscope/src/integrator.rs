@@ -357,10 +357,7 @@ impl<'a> Integrator<'a> {
         // nothing; no shadow ray is needed to know that.
         if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
             if R::RECORDS {
-                let reason = SkipReason::of(cos, si.geo_normal.dot(ls.wi), ls.distance);
-                if let Some(reason) = reason {
-                    ctx.recorder.light_skipped(&SkippedLight { light: point.light, to: ls.point, reason });
-                }
+                record_skip(si, point, ls, cos, ctx);
             }
             return Color::ZERO;
         }
@@ -371,15 +368,17 @@ impl<'a> Integrator<'a> {
             }
             return Color::ZERO;
         }
-        let phong = self.phong(si, ls.wi, -ray.dir, cos);
         if R::RECORDS {
             self.record_term(ray, si, point, ls, cos, arrived, ctx);
         }
-        arrived * ls.color * (phong.diffuse + phong.specular)
+        arrived * ls.color * self.phong(si, ls.wi, -ray.dir, cos)
     }
 
     /// Tell the recorder the terms of a shaded light point, as [`Integrator::shade_sample`]
-    /// computes them.
+    /// computes them. Out of line and cold: only the debugger runs it, and it stays out of the
+    /// renderer's light loop.
+    #[cold]
+    #[inline(never)]
     #[allow(clippy::too_many_arguments, reason = "the shading state of one light point, for the debugger only")]
     fn record_term<R: RayRecorder>(
         &self,
@@ -391,7 +390,7 @@ impl<'a> Integrator<'a> {
         arrived: Color,
         ctx: &mut PathContext<R>,
     ) {
-        let phong = self.phong(si, ls.wi, -ray.dir, cos);
+        let phong = self.phong_terms(si, ls.wi, -ray.dir, cos);
         let light = arrived * ls.color;
         ctx.recorder.light_term(&LightTerm {
             light: point.light,
@@ -408,10 +407,22 @@ impl<'a> Integrator<'a> {
         });
     }
 
-    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`, as its two
-    /// terms (the renderer adds them; the debugger shows them apart).
+    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`.
     #[inline]
-    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
+    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Color {
+        let mat = &self.scene.materials[si.material as usize];
+        let diffuse = si.kd * cos;
+        let r = reflect(-wi, si.shading_normal);
+        let spec = r.dot(view).max(0.0);
+        let specular =
+            if mat.ks == Color::ZERO || spec == 0.0 { Color::ZERO } else { mat.ks * spec.powf(mat.shininess) };
+        diffuse + specular
+    }
+
+    /// [`Integrator::phong`]'s two terms apart, and the highlight factor (the renderer adds
+    /// the terms; the debugger shows them apart).
+    #[inline]
+    fn phong_terms(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
         let mat = &self.scene.materials[si.material as usize];
         let diffuse = si.kd * cos;
         let r = reflect(-wi, si.shading_normal);
@@ -460,6 +471,22 @@ impl<'a> Integrator<'a> {
         });
         ctx.recorder.shadow_traversals(RecordedTraversal::from_log(self.scene, &log));
         t
+    }
+}
+
+/// Tell the recorder that light point `ls` was skipped, and why (see
+/// [`Integrator::record_term`] for why it is out of line).
+#[cold]
+#[inline(never)]
+fn record_skip<R: RayRecorder>(
+    si: &SurfaceInteraction,
+    point: LightPoint,
+    ls: &LightSample,
+    cos: f32,
+    ctx: &mut PathContext<R>,
+) {
+    if let Some(reason) = SkipReason::of(cos, si.geo_normal.dot(ls.wi), ls.distance) {
+        ctx.recorder.light_skipped(&SkippedLight { light: point.light, to: ls.point, reason });
     }
 }
 
