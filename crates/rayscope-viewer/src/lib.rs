@@ -8,6 +8,7 @@
 pub mod app;
 pub mod files;
 pub mod heat;
+pub mod overlay;
 pub mod plural;
 pub mod preview;
 pub mod session;

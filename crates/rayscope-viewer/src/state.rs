@@ -8,20 +8,30 @@ use std::sync::Arc;
 use egui::{Pos2, Rect};
 use glam::Vec3;
 use rayscope::camera::CameraMotion;
-use rayscope::light::Light;
 use rayscope::math::Vec3A;
 use rayscope::progressive::ImagingMode;
-use rayscope::record::{RayKind, RayTree};
+use rayscope::record::RayTree;
 use rayscope::render::trace_pixel;
 use rayscope::scene::{Scene, builtin};
 use rayscope::settings::RenderSettings;
 
+use crate::overlay::{
+    BLOCKED_COLOR, BOX_COLOR, ColorBy, LEAF_COLOR, LineKind, Lines, MISS_COLOR, NORMAL_COLOR, PAST_BLOCKER_COLOR,
+    REACHED_COLOR, SHADING_NORMAL_COLOR, ShownKinds, TRIANGLE_COLOR, depth_color, kind_color, light_line_color,
+};
 use crate::preview::LineVertex;
 use crate::trackball::Trackball;
 
 /// The most rays (shadow rays included) the viewer records for a debugged pixel, a tenth of
 /// `rayscope debug`'s bound: the 3D view draws every recorded ray in every frame.
 pub const RECORDED_RAYS: usize = 10_000;
+
+/// The most pixels a dragged rectangle selects: their trees are drawn together, and more would
+/// be a thicket (a larger drag is clamped, with a note).
+pub const MAX_RECT_PIXELS: u32 = 64;
+
+/// The default width of overlay lines, in points.
+pub const DEFAULT_LINE_WIDTH: f32 = 1.5;
 
 /// Which image the viewport shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,9 +55,9 @@ pub enum ModeChoice {
     Exposure,
 }
 
-/// The debugged pixel.
+/// One debugged pixel.
 #[derive(Clone, Debug)]
-pub struct Selection {
+pub struct PixelDebug {
     /// Pixel `(x, y)`, row 0 at the top.
     pub pixel: (u32, u32),
     /// Every ray of its first sample, as the renderer traced them.
@@ -56,19 +66,73 @@ pub struct Selection {
     pub color: Vec3,
     /// BVH nodes the camera ray entered.
     pub visited: Vec<u32>,
+}
+
+/// The debugged pixels: one clicked, or a dragged rectangle of up to [`MAX_RECT_PIXELS`].
+#[derive(Clone, Debug)]
+pub struct Selection {
+    /// The pixels, row by row; the first is the clicked one or the rectangle's top-left.
+    pub pixels: Vec<PixelDebug>,
+    /// Set when a dragged rectangle was larger than [`MAX_RECT_PIXELS`]: what was kept.
+    pub clamped: Option<String>,
     /// Distinguishes this selection from every other one (for [`OverlayKey`]).
     pub id: u64,
+}
+
+impl Selection {
+    /// The first (or only) pixel.
+    pub fn first(&self) -> &PixelDebug {
+        &self.pixels[0]
+    }
+}
+
+/// A rectangle of pixels, corners included, row 0 at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect {
+    /// Top-left pixel.
+    pub min: (u32, u32),
+    /// Bottom-right pixel (inclusive).
+    pub max: (u32, u32),
+}
+
+impl PixelRect {
+    /// The rectangle spanned by two corner pixels in any order.
+    pub fn spanning(a: (u32, u32), b: (u32, u32)) -> PixelRect {
+        PixelRect { min: (a.0.min(b.0), a.1.min(b.1)), max: (a.0.max(b.0), a.1.max(b.1)) }
+    }
+
+    /// Width and height in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.max.0 - self.min.0 + 1, self.max.1 - self.min.1 + 1)
+    }
+
+    /// The rectangle cut down to at most `max_pixels` from its top-left corner: as wide as it
+    /// was (up to `max_pixels`), with as many rows as fit.
+    pub fn clamped(&self, max_pixels: u32) -> PixelRect {
+        let (w, h) = self.size();
+        let w = w.min(max_pixels);
+        let h = h.min(max_pixels / w);
+        PixelRect { min: self.min, max: (self.min.0 + w - 1, self.min.1 + h - 1) }
+    }
+
+    /// Its pixels, row by row.
+    pub fn pixels(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (self.min.1..=self.max.1).flat_map(move |y| (self.min.0..=self.max.0).map(move |x| (x, y)))
+    }
 }
 
 /// What [`ViewerState::overlay_lines`] depends on: while it is the same, so are the lines,
 /// and the viewer draws the ones it made (and uploaded) before instead of making them for
 /// every frame, which the deep BVH levels of a large mesh made slow.
+/// (The line width is not in it: the preview widens the same lines on the GPU.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OverlayKey {
     scene: usize,
     bvh_level: Option<u32>,
     bvh_only_visited: bool,
-    show_light_samples: bool,
+    shown: ShownKinds,
+    max_depth_shown: u32,
+    color_by: ColorBy,
     selection: Option<u64>,
 }
 
@@ -100,8 +164,17 @@ pub struct ViewerState {
     pub bvh_level: Option<u32>,
     /// Draw only the BVH nodes the selected camera ray entered.
     pub bvh_only_visited: bool,
-    /// Draw the selected pixel's light samples.
-    pub show_light_samples: bool,
+    /// Which kinds of lines are drawn.
+    pub shown: ShownKinds,
+    /// Rays deeper than this are not drawn (nor their shadow rays and normals).
+    pub max_depth_shown: u32,
+    /// How rays are coloured.
+    pub color_by: ColorBy,
+    /// Overlay line width in points.
+    pub line_width: f32,
+    /// Whether a primary drag selects a rectangle of pixels (else it orbits; Ctrl-drag
+    /// selects either way).
+    pub rect_tool: bool,
     /// Bumped whenever the accumulation must restart.
     pub generation: u64,
 }
@@ -125,7 +198,11 @@ impl ViewerState {
             selection: None,
             bvh_level: None,
             bvh_only_visited: false,
-            show_light_samples: true,
+            shown: ShownKinds::default(),
+            max_depth_shown: rayscope::settings::MAX_DEPTH,
+            color_by: ColorBy::Depth,
+            line_width: DEFAULT_LINE_WIDTH,
+            rect_tool: false,
             generation: 0,
         };
         s.load_scene(spec);
@@ -246,6 +323,32 @@ impl ViewerState {
 
     /// Debug pixel `(x, y)`: trace its first sample with the library's recorder.
     pub fn select_pixel(&mut self, x: u32, y: u32) {
+        let one = PixelRect { min: (x, y), max: (x, y) };
+        self.select_rect(one);
+    }
+
+    /// Debug the pixels of `rect` (clipped to the image), up to [`MAX_RECT_PIXELS`] of them:
+    /// a larger rectangle is cut down from its top-left corner, with a note saying so.
+    pub fn select_rect(&mut self, rect: PixelRect) {
+        let last = (self.settings.width - 1, self.settings.height - 1);
+        let clip = |p: (u32, u32)| (p.0.min(last.0), p.1.min(last.1));
+        let rect = PixelRect { min: clip(rect.min), max: clip(rect.max) };
+        let kept = rect.clamped(MAX_RECT_PIXELS);
+        let clamped = (kept != rect).then(|| {
+            let ((w, h), (kw, kh)) = (rect.size(), kept.size());
+            format!(
+                "the {w}x{h} rectangle ({} pixels) was cut to its top-left {kw}x{kh}: at most {MAX_RECT_PIXELS} \
+                 pixels are traced together",
+                w * h
+            )
+        });
+        let pixels = kept.pixels().map(|(x, y)| self.debug_pixel(x, y)).collect();
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.selection = Some(Selection { pixels, clamped, id });
+    }
+
+    fn debug_pixel(&self, x: u32, y: u32) -> PixelDebug {
         let camera = self.camera();
         let mut tree = RayTree::with_limit(RECORDED_RAYS);
         let color = trace_pixel(&self.scene, &self.settings, &camera, x, y, 0, &mut tree);
@@ -256,17 +359,16 @@ impl ViewerState {
             }
             None => Vec::new(),
         };
-        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-        let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        self.selection = Some(Selection { pixel: (x, y), tree, color, visited, id });
+        PixelDebug { pixel: (x, y), tree, color, visited }
     }
 
-    /// Re-trace the selected pixel (after a settings change); the camera it was traced with is
+    /// Re-trace the selected pixels (after a settings change); the camera it was traced with is
     /// kept in the tree, so orbiting around it does not change it.
     pub fn retrace(&mut self) {
         if let Some(sel) = &self.selection {
-            let (x, y) = sel.pixel;
-            self.select_pixel(x, y);
+            let first = sel.first().pixel;
+            let last = sel.pixels.last().map_or(first, |p| p.pixel);
+            self.select_rect(PixelRect { min: first, max: last });
         }
     }
 
@@ -284,21 +386,24 @@ impl ViewerState {
             scene: Arc::as_ptr(&self.scene) as usize,
             bvh_level: self.bvh_level,
             bvh_only_visited: self.bvh_only_visited,
-            show_light_samples: self.show_light_samples,
+            shown: self.shown,
+            max_depth_shown: self.max_depth_shown,
+            color_by: self.color_by,
             selection: self.selection.as_ref().map(|s| s.id),
         }
     }
 
-    /// Every line the debugger draws over the rasterized scene.
+    /// Every line the debugger draws over the scene.
     pub fn overlay_lines(&self) -> Vec<LineVertex> {
         let mut out = Lines::default();
         let r = self.scale();
         for light in &self.scene.lights {
-            light_marker(&mut out, light, r);
+            out.light(light, r, None);
         }
         if let Some(level) = self.bvh_level {
-            let visited: Option<std::collections::HashSet<u32>> =
-                self.bvh_only_visited.then(|| self.selection.iter().flat_map(|s| s.visited.iter().copied()).collect());
+            let visited: Option<std::collections::HashSet<u32>> = self.bvh_only_visited.then(|| {
+                self.selection.iter().flat_map(|s| &s.pixels).flat_map(|p| p.visited.iter().copied()).collect()
+            });
             for b in self.scene.geometry.bvh.boxes_at_level(level) {
                 if visited.as_ref().is_some_and(|v| !v.contains(&b.node)) {
                     continue;
@@ -307,34 +412,45 @@ impl ViewerState {
                 out.aabb(b.bounds.min.into(), b.bounds.max.into(), color);
             }
         }
-        if let Some(sel) = &self.selection {
-            self.ray_tree_lines(&mut out, sel, r);
+        for p in self.selection.iter().flat_map(|s| &s.pixels) {
+            self.ray_tree_lines(&mut out, &p.tree, r);
         }
         out.0
     }
 
-    fn ray_tree_lines(&self, out: &mut Lines, sel: &Selection, r: f32) {
-        for ray in &sel.tree.rays {
+    fn ray_tree_lines(&self, out: &mut Lines, tree: &RayTree, r: f32) {
+        let shown = |k: LineKind| self.shown.contains(k);
+        for ray in tree.rays.iter().filter(|ray| ray.depth <= self.max_depth_shown) {
             let o = Vec3::from_array(ray.origin);
             let d = Vec3::from_array(ray.dir);
+            let color = match self.color_by {
+                ColorBy::Depth => depth_color(ray.depth, ray.kind),
+                ColorBy::Kind => kind_color(ray.kind),
+            };
+            let ray_shown = shown(LineKind::of_ray(ray.kind));
             match &ray.hit {
-                None => out.line(o, o + d * (4.0 * r), MISS_COLOR),
+                None if ray_shown => out.line(o, o + d * (4.0 * r), MISS_COLOR),
+                None => {}
                 Some(h) => {
                     let p = Vec3::from_array(h.point);
-                    out.line(o, p, depth_color(ray.depth, ray.kind));
-                    // The hit triangle, the geometric normal and, when shading uses another,
-                    // the interpolated normal beside it.
-                    if let Some(v) = self.scene.triangle_vertices(h.prim) {
-                        let [a, b, c] = v.map(Vec3::from);
-                        out.line(a, b, TRIANGLE_COLOR);
-                        out.line(b, c, TRIANGLE_COLOR);
-                        out.line(c, a, TRIANGLE_COLOR);
+                    if ray_shown {
+                        out.line(o, p, color);
                     }
-                    let ng = Vec3::from_array(h.geo_normal);
-                    let ns = Vec3::from_array(h.shading_normal);
-                    out.line(p, p + ng * (0.15 * r), NORMAL_COLOR);
-                    if (ns - ng).length() > 1e-4 {
-                        out.line(p, p + ns * (0.15 * r), SHADING_NORMAL_COLOR);
+                    if shown(LineKind::Normals) {
+                        // The hit triangle, the geometric normal and, when shading uses
+                        // another, the interpolated normal beside it.
+                        if let Some(v) = self.scene.triangle_vertices(h.prim) {
+                            let [a, b, c] = v.map(Vec3::from);
+                            out.line(a, b, TRIANGLE_COLOR);
+                            out.line(b, c, TRIANGLE_COLOR);
+                            out.line(c, a, TRIANGLE_COLOR);
+                        }
+                        let ng = Vec3::from_array(h.geo_normal);
+                        let ns = Vec3::from_array(h.shading_normal);
+                        out.line(p, p + ng * (0.15 * r), NORMAL_COLOR);
+                        if (ns - ng).length() > 1e-4 {
+                            out.line(p, p + ns * (0.15 * r), SHADING_NORMAL_COLOR);
+                        }
                     }
                 }
             }
@@ -343,121 +459,25 @@ impl ViewerState {
                 let to = Vec3::from_array(s.to);
                 let reached = s.transmitted.iter().any(|t| *t > 0.0);
                 match s.blocked_at {
-                    Some(b) => {
+                    // As the course's shadow debug draws it: the light's colour up to the
+                    // blocker, a cross there, and dark past it.
+                    Some(b) if shown(LineKind::ShadowBlocked) => {
                         let b = Vec3::from_array(b);
-                        out.line(from, b, BLOCKED_COLOR);
+                        out.line(from, b, light_line_color(Vec3::from_array(s.light_color)));
                         out.cross(b, 0.02 * r, BLOCKED_COLOR);
-                        out.line(b, to, [1.0, 0.3, 0.3, 0.25]);
+                        out.line(b, to, PAST_BLOCKER_COLOR);
                     }
-                    None => out.line(from, to, if reached { REACHED_COLOR } else { BLOCKED_COLOR }),
+                    Some(_) => {}
+                    None if reached && shown(LineKind::ShadowReached) => out.line(from, to, REACHED_COLOR),
+                    // Nothing got through, yet nothing opaque blocked it: fully absorbed by
+                    // transparent surfaces.
+                    None if !reached && shown(LineKind::ShadowBlocked) => out.line(from, to, PAST_BLOCKER_COLOR),
+                    None => {}
                 }
-                if self.show_light_samples {
-                    let c = if reached { REACHED_COLOR } else { BLOCKED_COLOR };
-                    out.cross(to, 0.012 * r, c);
+                if shown(LineKind::LightSamples) {
+                    out.cross(to, 0.012 * r, if reached { REACHED_COLOR } else { BLOCKED_COLOR });
                 }
             }
-        }
-    }
-}
-
-/// Colours of the overlay.
-pub const MISS_COLOR: [f32; 4] = [1.0, 0.15, 0.15, 1.0];
-/// Shadow ray that reached its light point.
-pub const REACHED_COLOR: [f32; 4] = [0.2, 1.0, 0.2, 1.0];
-/// Shadow ray that an opaque surface blocked, and the blocker.
-pub const BLOCKED_COLOR: [f32; 4] = [1.0, 0.1, 0.1, 1.0];
-/// The hit triangle's outline.
-pub const TRIANGLE_COLOR: [f32; 4] = [1.0, 0.35, 0.85, 1.0];
-/// Geometric normal.
-pub const NORMAL_COLOR: [f32; 4] = [0.2, 0.4, 1.0, 1.0];
-/// Interpolated (shading) normal.
-pub const SHADING_NORMAL_COLOR: [f32; 4] = [0.2, 0.95, 1.0, 1.0];
-/// BVH interior boxes.
-pub const BOX_COLOR: [f32; 4] = [0.3, 0.9, 0.9, 0.8];
-/// BVH leaves.
-pub const LEAF_COLOR: [f32; 4] = [1.0, 0.55, 0.1, 0.9];
-
-/// Rays by depth: the camera ray white (as in the course), then warmer colours per bounce;
-/// glossy rays fainter, as there are many.
-pub fn depth_color(depth: u32, kind: RayKind) -> [f32; 4] {
-    const BY_DEPTH: [[f32; 3]; 6] =
-        [[1.0, 1.0, 1.0], [1.0, 0.8, 0.2], [1.0, 0.5, 0.1], [0.65, 0.45, 1.0], [0.4, 0.75, 1.0], [0.8, 0.8, 0.5]];
-    let c = BY_DEPTH[(depth as usize).min(BY_DEPTH.len() - 1)];
-    let a = if kind == RayKind::Glossy { 0.5 } else { 1.0 };
-    [c[0], c[1], c[2], a]
-}
-
-#[derive(Default)]
-struct Lines(Vec<LineVertex>);
-
-impl Lines {
-    fn line(&mut self, a: Vec3, b: Vec3, color: [f32; 4]) {
-        self.0.push(LineVertex { pos: a.to_array(), color });
-        self.0.push(LineVertex { pos: b.to_array(), color });
-    }
-
-    fn cross(&mut self, p: Vec3, s: f32, color: [f32; 4]) {
-        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
-            self.line(p - axis * s, p + axis * s, color);
-        }
-    }
-
-    fn aabb(&mut self, lo: Vec3, hi: Vec3, color: [f32; 4]) {
-        let c = |i: u32| {
-            Vec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            )
-        };
-        for (a, b) in [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)] {
-            self.line(c(a), c(b), color);
-        }
-    }
-
-    fn circle(&mut self, center: Vec3, u: Vec3, v: Vec3, color: [f32; 4]) {
-        let n = 48;
-        for i in 0..n {
-            let a = std::f32::consts::TAU * i as f32 / n as f32;
-            let b = std::f32::consts::TAU * (i + 1) as f32 / n as f32;
-            self.line(center + u * a.cos() + v * a.sin(), center + u * b.cos() + v * b.sin(), color);
-        }
-    }
-}
-
-/// A light as the course drew it: a dot for a point light, a line for a segment, a quad for a
-/// parallelogram, a wire sphere; in the light's colour.
-fn light_marker(out: &mut Lines, light: &Light, r: f32) {
-    let col = |c: Vec3| {
-        let m = c.max_element().max(1e-6);
-        let c = c / m.max(1.0);
-        [c.x, c.y, c.z, 1.0]
-    };
-    match *light {
-        Light::Point { position, color } => out.cross(position, 0.03 * r, col(color)),
-        Light::Segment { endpoint0, endpoint1, color0, color1 } => {
-            let n = 16;
-            for i in 0..n {
-                let (a, b) = (i as f32 / n as f32, (i + 1) as f32 / n as f32);
-                out.line(
-                    endpoint0.lerp(endpoint1, a),
-                    endpoint0.lerp(endpoint1, b),
-                    col(color0.lerp(color1, (a + b) * 0.5)),
-                );
-            }
-        }
-        Light::Parallelogram { v0, edge01, edge02, color0, color1, color2, color3 } => {
-            let p = [v0, v0 + edge01, v0 + edge01 + edge02, v0 + edge02];
-            let c = [color0, color1, color3, color2];
-            for i in 0..4 {
-                out.line(p[i], p[(i + 1) % 4], col((c[i] + c[(i + 1) % 4]) * 0.5));
-            }
-        }
-        Light::Sphere { center, radius, color } => {
-            let c = col(color);
-            out.circle(center, Vec3::X * radius, Vec3::Y * radius, c);
-            out.circle(center, Vec3::Y * radius, Vec3::Z * radius, c);
-            out.circle(center, Vec3::Z * radius, Vec3::X * radius, c);
         }
     }
 }
@@ -465,6 +485,7 @@ fn light_marker(out: &mut Lines, light: &Light, r: f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rayscope::record::RayKind;
 
     fn state() -> ViewerState {
         ViewerState::new("cornell-box", None)
@@ -486,7 +507,7 @@ mod tests {
     fn the_ray_tree_is_the_librarys() {
         let mut s = state();
         s.select_pixel(400, 400);
-        let sel = s.selection.as_ref().unwrap();
+        let sel = s.selection.as_ref().unwrap().first();
         let mut tree = RayTree::with_limit(RECORDED_RAYS);
         let color = trace_pixel(&s.scene, &s.settings, &s.scene.camera_motion(), 400, 400, 0, &mut tree);
         assert_eq!(sel.tree, tree);
@@ -521,9 +542,9 @@ mod tests {
     fn settings_changes_retrace_the_selection() {
         let mut s = state();
         s.select_pixel(400, 400);
-        let with = s.selection.as_ref().unwrap().tree.rays[0].shadows.len();
+        let with = s.selection.as_ref().unwrap().first().tree.rays[0].shadows.len();
         s.set_settings(RenderSettings { shadows: false, ..s.settings.clone() });
-        let without = s.selection.as_ref().unwrap().tree.rays[0].shadows.len();
+        let without = s.selection.as_ref().unwrap().first().tree.rays[0].shadows.len();
         assert!(with > 0 && without == 0);
     }
 
@@ -556,13 +577,137 @@ mod tests {
         let selected = s.overlay_key();
         s.retrace();
         assert_ne!(s.overlay_key(), selected, "a re-traced pixel may have other shadow samples");
-        for toggle in
-            [|s: &mut ViewerState| s.bvh_only_visited ^= true, |s: &mut ViewerState| s.show_light_samples ^= true]
-        {
+        for toggle in [
+            |s: &mut ViewerState| s.bvh_only_visited ^= true,
+            |s: &mut ViewerState| s.shown.set(LineKind::LightSamples, false),
+            |s: &mut ViewerState| s.max_depth_shown = 0,
+            |s: &mut ViewerState| s.color_by = ColorBy::Kind,
+        ] {
             let before = s.overlay_key();
             toggle(&mut s);
             assert_ne!(s.overlay_key(), before);
         }
+    }
+
+    /// Segments of `lines` whose colour is `c`.
+    fn segments(lines: &[LineVertex], c: [f32; 4]) -> usize {
+        lines.chunks(2).filter(|v| v[0].color == c).count()
+    }
+
+    /// Segments of `kind` drawn: all the segments less those drawn without it.
+    fn drawn(s: &mut ViewerState, kind: LineKind) -> usize {
+        let all = s.overlay_lines().len() / 2;
+        s.shown.set(kind, false);
+        let without = s.overlay_lines().len() / 2;
+        s.shown.set(kind, true);
+        all - without
+    }
+
+    #[test]
+    fn each_kind_toggles_its_own_lines() {
+        // The mirror at the Cornell box's centre: a camera ray, a reflection, shadow rays.
+        let mut s = state();
+        s.settings.light_samples = 16;
+        s.select_pixel(400, 400);
+        let tree = s.selection.as_ref().unwrap().first().tree.clone();
+        let rays = |k: RayKind| tree.rays.iter().filter(|r| r.kind == k).count();
+        let (camera, reflections) = (rays(RayKind::Camera), rays(RayKind::Reflection));
+        assert!(camera == 1 && reflections >= 1);
+        let shadows: Vec<_> = tree.rays.iter().flat_map(|r| &r.shadows).collect();
+        let blocked = shadows.iter().filter(|s| s.blocked_at.is_some()).count();
+        let reached = shadows.iter().filter(|s| s.transmitted.iter().any(|t| *t > 0.0)).count();
+        assert!(reached > 0);
+        let all = s.overlay_lines();
+        assert_eq!(all.len() % 2, 0, "vertex pairs");
+        assert_eq!(segments(&all, REACHED_COLOR), 4 * reached, "a line and a light-sample cross each");
+        assert_eq!(segments(&all, PAST_BLOCKER_COLOR), blocked);
+        // Each toggle removes exactly its own lines.
+        assert_eq!(drawn(&mut s, LineKind::Camera), camera);
+        assert_eq!(drawn(&mut s, LineKind::Reflection), reflections);
+        assert_eq!(drawn(&mut s, LineKind::Glossy), 0, "no glossy rays here");
+        assert_eq!(drawn(&mut s, LineKind::Transmission), 0, "nor transparent surfaces");
+        assert_eq!(drawn(&mut s, LineKind::ShadowReached), reached);
+        assert_eq!(drawn(&mut s, LineKind::ShadowBlocked), 5 * blocked, "to the blocker, a cross, past it");
+        assert_eq!(drawn(&mut s, LineKind::LightSamples), 3 * shadows.len());
+        let hits = tree.rays.iter().filter(|r| r.hit.is_some()).count();
+        assert!(drawn(&mut s, LineKind::Normals) >= hits, "a normal per hit");
+        // With every kind off, the lights' shapes are all that is left.
+        for k in LineKind::ALL {
+            s.shown.set(k, false);
+        }
+        let lights_only = ViewerState { selection: None, ..state() }.overlay_lines();
+        assert_eq!(s.overlay_lines(), lights_only);
+    }
+
+    #[test]
+    fn blocked_shadow_rays_stop_in_the_lights_colour() {
+        // Some point of the Cornell box's floor is shadowed by a block from the ceiling light.
+        let mut s = state();
+        s.settings.light_samples = 16;
+        let grid = (0..800).step_by(25).flat_map(|y| (0..800).step_by(25).map(move |x| (x, y)));
+        let blocked = grid.into_iter().find_map(|(x, y)| {
+            s.select_pixel(x, y);
+            let t = &s.selection.as_ref().unwrap().first().tree;
+            t.rays.iter().flat_map(|r| &r.shadows).find(|sh| sh.blocked_at.is_some()).copied()
+        });
+        let sh = blocked.expect("some pixel is in shadow");
+        let lines = s.overlay_lines();
+        let light = crate::overlay::light_line_color(Vec3::from_array(sh.light_color));
+        let to_blocker = lines.chunks(2).find(|v| v[0].pos == sh.from && v[1].pos == sh.blocked_at.unwrap());
+        assert_eq!(to_blocker.map(|v| v[0].color), Some(light));
+        let past = lines.chunks(2).find(|v| v[0].pos == sh.blocked_at.unwrap() && v[1].pos == sh.to);
+        assert_eq!(past.map(|v| v[0].color), Some(PAST_BLOCKER_COLOR));
+    }
+
+    #[test]
+    fn the_depth_shown_limits_the_tree() {
+        let mut s = state();
+        s.select_pixel(400, 400);
+        let tree = s.selection.as_ref().unwrap().first().tree.clone();
+        let mut last = usize::MAX;
+        for d in (0..=2).rev() {
+            s.max_depth_shown = d;
+            let drawn = segments(&s.overlay_lines(), depth_color(d, RayKind::Reflection));
+            let want = tree.rays.iter().filter(|r| r.depth == d && r.hit.is_some()).count();
+            if d > 0 {
+                assert_eq!(drawn, want, "depth {d}");
+            }
+            let n = s.overlay_lines().len();
+            assert!(n <= last, "fewer lines as the depth shown falls");
+            last = n;
+        }
+        s.max_depth_shown = 0;
+        assert!(segments(&s.overlay_lines(), depth_color(1, RayKind::Reflection)) == 0);
+    }
+
+    #[test]
+    fn a_rectangle_selects_its_pixels_up_to_64() {
+        let mut s = state();
+        s.select_rect(PixelRect::spanning((403, 402), (400, 400)));
+        let sel = s.selection.as_ref().unwrap();
+        assert_eq!(sel.pixels.len(), 12);
+        assert_eq!(sel.first().pixel, (400, 400));
+        assert!(sel.clamped.is_none());
+        for (p, want) in sel.pixels.iter().zip(PixelRect::spanning((400, 400), (403, 402)).pixels()) {
+            let mut tree = RayTree::with_limit(RECORDED_RAYS);
+            let c = trace_pixel(&s.scene, &s.settings, &s.camera(), want.0, want.1, 0, &mut tree);
+            assert_eq!((p.pixel, &p.tree, p.color), (want, &tree, c));
+        }
+        assert_eq!(drawn(&mut s, LineKind::Camera), 12, "one tree per pixel, drawn together");
+        // A large drag is cut to 64 pixels from its top-left corner, and says so.
+        s.select_rect(PixelRect::spanning((100, 100), (139, 119)));
+        let sel = s.selection.as_ref().unwrap();
+        assert_eq!(sel.pixels.len(), 40, "40 wide: one row of 40 (two would be 80)");
+        s.select_rect(PixelRect::spanning((100, 100), (107, 199)));
+        let sel = s.selection.as_ref().unwrap();
+        assert_eq!(sel.pixels.len(), 64);
+        assert_eq!(sel.pixels.last().unwrap().pixel, (107, 107));
+        assert!(sel.clamped.as_ref().unwrap().contains("8x100 rectangle (800 pixels) was cut to its top-left 8x8"));
+        // Clipped to the image; a re-trace keeps the rectangle.
+        s.select_rect(PixelRect::spanning((798, 798), (900, 900)));
+        assert_eq!(s.selection.as_ref().unwrap().pixels.len(), 4);
+        s.set_settings(RenderSettings { shadows: false, ..s.settings.clone() });
+        assert_eq!(s.selection.as_ref().unwrap().pixels.len(), 4);
     }
 
     #[test]
