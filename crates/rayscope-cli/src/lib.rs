@@ -19,12 +19,13 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayscope::aov::{Aov, render_aov};
 use rayscope::camera::CameraDesc;
+use rayscope::debug::{PixelTrace, SampleChoice, trace_pixel_samples, write_rays_obj};
 use rayscope::film::Film;
 use rayscope::math::Vec3;
 use rayscope::output::{Encoding, Format, write_image};
 use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::{MAX_RECORDED_RAYS, RayTree};
-use rayscope::render::{render_cancellable, trace_pixel};
+use rayscope::render::render_cancellable;
 use rayscope::scene::{Scene, builtin};
 use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
 
@@ -263,13 +264,31 @@ struct DebugArgs {
     /// The pixel, `X,Y` from the top-left corner.
     #[arg(long, value_parser = parse_pixel)]
     pixel: (u32, u32),
-    /// Which of the pixel's samples to trace (0 to spp - 1).
-    #[arg(long, default_value_t = 0)]
-    sample: u32,
-    /// Record at most this many rays (shadow rays included); the rest are traced but not
-    /// printed.
+    /// Which of the pixel's samples to trace: `all` (the pixel's value as rendered), or one
+    /// by index (0 to spp - 1).
+    #[arg(long, value_name = "all|K", default_value = "all", value_parser = parse_samples)]
+    samples: SampleChoice,
+    /// Trace only this sample (the same as --samples K).
+    #[arg(long, value_name = "K", conflicts_with = "samples")]
+    sample: Option<u32>,
+    /// Print the pixel's colour as a sum of terms (per sample, ray and light) as text instead
+    /// of the JSON.
+    #[arg(long)]
+    explain: bool,
+    /// Also write the rays as an OBJ file of lines and points, one group per kind of ray.
+    #[arg(long, value_name = "FILE.obj")]
+    export_rays: Option<PathBuf>,
+    /// Record at most this many rays (shadow rays included, over all the samples traced);
+    /// the rest are traced but not printed.
     #[arg(long, value_name = "N", default_value_t = MAX_RECORDED_RAYS)]
     max_rays: usize,
+}
+
+fn parse_samples(s: &str) -> Result<SampleChoice, String> {
+    if s == "all" {
+        return Ok(SampleChoice::All);
+    }
+    s.parse().map(SampleChoice::One).map_err(|_| format!("'{s}' is neither `all` nor a sample index"))
 }
 
 fn parse_orbit(s: &str) -> Result<(f32, f32), String> {
@@ -618,33 +637,67 @@ fn cmd_debug(args: DebugArgs) -> Result<()> {
     if x >= settings.width || y >= settings.height {
         bail!("pixel {x},{y} is outside the {}x{} image", settings.width, settings.height);
     }
-    let mut tree = RayTree::with_limit(args.max_rays);
-    if args.sample >= settings.spp {
-        bail!(
-            "sample {} does not exist: the pixel has {} (--spp)",
-            args.sample,
-            counted(settings.spp.into(), "sample", "samples")
+    let which = args.sample.map_or(args.samples, SampleChoice::One);
+    if let SampleChoice::One(k) = which
+        && k >= settings.spp
+    {
+        bail!("sample {k} does not exist: the pixel has {} (--spp)", counted(settings.spp.into(), "sample", "samples"));
+    }
+    let trace = trace_pixel_samples(&scene, &settings, &scene.camera_motion(), x, y, which, args.max_rays);
+    let explanation = trace.explain();
+    if let Some(path) = &args.export_rays {
+        let counts = write_rays_obj(&trace, path)?;
+        eprintln!(
+            "wrote {}: {} and {}",
+            path.display(),
+            counted(counts.segments as u64, "segment", "segments"),
+            counted(counts.points as u64, "point", "points")
         );
     }
-    let color = trace_pixel(&scene, &settings, &scene.camera_motion(), x, y, args.sample, &mut tree);
-    let json = serde_json::json!({
-        "scene": scene.name,
-        "pixel": [x, y],
-        "sample": args.sample,
-        "color": color.to_array(),
-        "rays": tree.rays,
-        "cut": tree.cut,
-    });
     // Streamed: a tree at its bound is about 70 MB of text, which need not be held as well
     // (the peak of a 100 000-ray tree falls from 280 to 210 MB).
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    serde_json::to_writer_pretty(&mut out, &json)?;
-    writeln!(out)?;
+    if args.explain {
+        write!(out, "{explanation}")?;
+    } else {
+        let json = serde_json::json!({
+            "scene": scene.name,
+            "pixel": [x, y],
+            "spp": settings.spp,
+            "value": trace.value.to_array(),
+            "samples": samples_json(&trace, &scene)?,
+            "explanation": explanation,
+        });
+        serde_json::to_writer_pretty(&mut out, &json)?;
+        writeln!(out)?;
+    }
     out.flush()?;
-    for note in debug_notes(&tree) {
-        eprintln!("note: {note}");
+    for sample in &trace.samples {
+        for note in debug_notes(&sample.tree) {
+            eprintln!("note: sample {}: {note}", sample.index);
+        }
     }
     Ok(())
+}
+
+/// The samples of `trace` as JSON, each hit's material named beside its index.
+fn samples_json(trace: &PixelTrace, scene: &Scene) -> Result<serde_json::Value> {
+    let mut samples = serde_json::to_value(&trace.samples)?;
+    for sample in samples.as_array_mut().into_iter().flatten() {
+        // The tree's rays and cut at the sample's level, where they are read.
+        let tree = sample.as_object_mut().and_then(|s| s.remove("tree"));
+        if let (Some(serde_json::Value::Object(tree)), Some(s)) = (tree, sample.as_object_mut()) {
+            s.extend(tree);
+        }
+        for ray in sample["rays"].as_array_mut().into_iter().flatten() {
+            let hit = &mut ray["hit"];
+            if let Some(m) = hit["material"].as_u64() {
+                let name = scene.materials.get(m as usize).map(|m| m.name.clone());
+                hit["material_name"] = name.into();
+            }
+        }
+    }
+    Ok(samples)
 }
 
 /// What the debugger's output leaves out or cannot show: the rays past its bound, and the

@@ -81,11 +81,50 @@ fn debug_prints_the_ray_tree() {
     let o = rayscope(dir.path(), &["debug", "--pixel", "400,400"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let rays = v["rays"].as_array().unwrap();
+    let rays = v["samples"][0]["rays"].as_array().unwrap();
     assert_eq!(rays[0]["kind"], "camera");
     assert!(rays[0]["hit"].is_object());
     assert!(rays.iter().any(|r| r["kind"] == "reflection" && r["parent"] == 0), "{v}");
     assert!(!rays[0]["shadows"].as_array().unwrap().is_empty());
+    // The mirror box's material, by name beside its index.
+    assert!(rays[0]["hit"]["material"].is_u64() && rays[0]["hit"]["material_name"].is_string(), "{v}");
+    assert_eq!(v["value"], v["samples"][0]["color"]);
+    assert_eq!(v["explanation"]["value"], v["value"]);
+}
+
+/// All of a pixel's samples are traced by default, one with `--samples K` (or `--sample K`);
+/// `--explain` prints the terms and their sum; `--export-rays` writes an OBJ.
+#[test]
+fn debug_traces_every_sample_and_explains_the_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let args = ["debug", "--pixel", "20,20", "--width", "40", "--height", "40", "--spp", "4", "--light-samples", "2"];
+    let o = rayscope(d, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let samples = v["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 4);
+    assert!(samples.iter().all(|s| s["weight"] == 0.25));
+    let terms = v["explanation"]["terms"].as_array().unwrap();
+    assert!(terms.iter().any(|t| t["kind"] == "diffuse" && t["light"] == 0), "{v}");
+    for one in [["--samples", "2"], ["--sample", "2"]] {
+        let o = rayscope(d, &[&args[..], &one[..]].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let w: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(w["samples"].as_array().unwrap().len(), 1);
+        assert_eq!(w["samples"][0]["rays"], samples[2]["rays"]);
+        assert_eq!(w["value"], samples[2]["color"]);
+    }
+    let o = rayscope(d, &[&args[..], &["--explain", "--export-rays", "rays.obj"][..]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout.clone()).unwrap();
+    assert!(text.contains("sample 3 (weighs 0.25)") && text.contains("diffuse light 0"), "{text}");
+    assert!(text.contains("sum of the terms") && text.contains("the pixel (renderer)"), "{text}");
+    let obj = std::fs::read_to_string(d.join("rays.obj")).unwrap();
+    assert!(obj.contains("g camera\n") && obj.lines().any(|l| l.starts_with("l ")), "{obj}");
+    assert!(stderr(&o).contains("wrote rays.obj"), "{}", stderr(&o));
+    fails_with(d, &["debug", "--pixel", "1,1", "--samples", "some"], &["neither `all` nor a sample index"]);
+    fails_with(d, &["debug", "--pixel", "1,1", "--samples", "1", "--sample", "1"], &["cannot be used with"]);
 }
 
 fn fails_with(dir: &Path, args: &[&str], needles: &[&str]) {
@@ -532,7 +571,7 @@ fn debug_explains_stopped_branches_and_a_cut_tree() {
     // Adaptive depth control stops the tree; the debugger says where and why.
     let o = rayscope(d, &["debug", "nested.toml", "--pixel", "4,4", "--max-depth", "64"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let v = json(&o);
+    let v = json(&o)["samples"][0].clone();
     assert!(v["cut"].is_null() && v["rays"].as_array().unwrap().len() < 2048);
     let stopped = v["rays"].as_array().unwrap().iter().find(|r| r["stopped"].is_array()).expect("a stopped branch");
     assert_eq!(stopped["stopped"][0]["adc_bailout"], 1.0 / 1024.0);
@@ -544,7 +583,7 @@ fn debug_explains_stopped_branches_and_a_cut_tree() {
         &["debug", "nested.toml", "--pixel", "4,4", "--max-depth", "16", "--adc-bailout", "0", "--max-rays", "1000"],
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let v = json(&o);
+    let v = json(&o)["samples"][0].clone();
     let rays = v["rays"].as_array().unwrap();
     let shadows: usize = rays.iter().map(|r| r["shadows"].as_array().unwrap().len()).sum();
     assert_eq!(rays.len() + shadows, 1000);

@@ -9,7 +9,9 @@
 use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
-use crate::record::{RayKind, RayRecorder, RecordedHit, ShadowEvent, StoppedBranch};
+use crate::record::{
+    LightTerm, RayKind, RayRecorder, RecordedHit, ShadowEvent, SkipReason, SkippedLight, StoppedBranch, SurfaceFactors,
+};
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Hit, LightVisibility, Scene, SurfaceInteraction};
 use crate::settings::{RenderSettings, ShadingOptions};
@@ -119,6 +121,9 @@ impl<'a> Integrator<'a> {
         ctx: &mut PathContext<R>,
     ) -> Color {
         ctx.recorder.begin_ray(kind, depth, ray);
+        if R::RECORDS {
+            ctx.recorder.weight(weight);
+        }
         ctx.counts.primary_and_secondary += 1;
         let color = match hit {
             None => {
@@ -161,6 +166,10 @@ impl<'a> Integrator<'a> {
         let mut color = self.direct(ray, si, ctx);
         let recurse = depth < s.max_depth;
         let transmits = recurse && s.transparency && mat.transparency < 1.0;
+        if R::RECORDS {
+            let opacity = transmits.then_some(mat.transparency);
+            ctx.recorder.surface_factors(&SurfaceFactors { ks: mat.ks, opacity });
+        }
         if recurse && s.reflections && mat.ks.max_element() > 0.0 {
             // The reflection reaches the pixel through `ks`, and through the opacity by which
             // the blend below scales the surface's colour.
@@ -265,7 +274,7 @@ impl<'a> Integrator<'a> {
             if n == 0 || matches!(light, Light::Point { .. }) {
                 let center = light.center_sample(si.point);
                 sum += self.scene.light_visibility(si, light, 1, &self.shading, |vis| {
-                    self.shade_sample(ray, si, i, &center, vis, ctx)
+                    self.shade_sample(ray, si, LightPoint { light: i, samples: 1 }, &center, vis, ctx)
                 });
                 continue;
             }
@@ -283,7 +292,7 @@ impl<'a> Integrator<'a> {
                         strata.sample(k, ctx.sampler.next_2d())
                     };
                     let ls = sampler.sample(u);
-                    acc += self.shade_sample(ray, si, i, &ls, vis, ctx);
+                    acc += self.shade_sample(ray, si, LightPoint { light: i, samples: n }, &ls, vis, ctx);
                 }
                 acc / n as f32
             });
@@ -298,7 +307,7 @@ impl<'a> Integrator<'a> {
         &self,
         ray: &Ray,
         si: &SurfaceInteraction,
-        light: usize,
+        point: LightPoint,
         ls: &LightSample,
         vis: &LightVisibility,
         ctx: &mut PathContext<R>,
@@ -307,25 +316,73 @@ impl<'a> Integrator<'a> {
         // A light point behind the surface (as seen from the viewer's side) contributes
         // nothing; no shadow ray is needed to know that.
         if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
+            if R::RECORDS {
+                let reason = SkipReason::of(cos, si.geo_normal.dot(ls.wi), ls.distance);
+                if let Some(reason) = reason {
+                    ctx.recorder.light_skipped(&SkippedLight { light: point.light, to: ls.point, reason });
+                }
+            }
             return Color::ZERO;
         }
-        let arrived = self.visibility(si, ls, ray.time, light, vis, ctx);
+        let arrived = self.visibility(si, ls, ray.time, point.light, vis, ctx);
         if arrived == Color::ZERO {
+            if R::RECORDS {
+                self.record_term(ray, si, point, ls, cos, arrived, ctx);
+            }
             return Color::ZERO;
         }
-        arrived * ls.color * self.phong(si, ls.wi, -ray.dir, cos)
+        let phong = self.phong(si, ls.wi, -ray.dir, cos);
+        if R::RECORDS {
+            self.record_term(ray, si, point, ls, cos, arrived, ctx);
+        }
+        arrived * ls.color * (phong.diffuse + phong.specular)
     }
 
-    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`.
+    /// Tell the recorder the terms of a shaded light point, as [`Integrator::shade_sample`]
+    /// computes them.
+    #[allow(clippy::too_many_arguments, reason = "the shading state of one light point, for the debugger only")]
+    fn record_term<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        point: LightPoint,
+        ls: &LightSample,
+        cos: f32,
+        arrived: Color,
+        ctx: &mut PathContext<R>,
+    ) {
+        let phong = self.phong(si, ls.wi, -ray.dir, cos);
+        let light = arrived * ls.color;
+        ctx.recorder.light_term(&LightTerm {
+            light: point.light,
+            samples: point.samples,
+            to: ls.point,
+            kd: si.kd,
+            cos,
+            ks: self.scene.materials[si.material as usize].ks,
+            highlight: phong.highlight,
+            light_color: ls.color,
+            arrived,
+            diffuse: light * phong.diffuse,
+            specular: light * phong.specular,
+        });
+    }
+
+    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`, as its two
+    /// terms (the renderer adds them; the debugger shows them apart).
     #[inline]
-    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Color {
+    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
         let mat = &self.scene.materials[si.material as usize];
         let diffuse = si.kd * cos;
         let r = reflect(-wi, si.shading_normal);
         let spec = r.dot(view).max(0.0);
-        let specular =
-            if mat.ks == Color::ZERO || spec == 0.0 { Color::ZERO } else { mat.ks * spec.powf(mat.shininess) };
-        diffuse + specular
+        let (specular, highlight) = if mat.ks == Color::ZERO || spec == 0.0 {
+            (Color::ZERO, 0.0)
+        } else {
+            let highlight = spec.powf(mat.shininess);
+            (mat.ks * highlight, highlight)
+        };
+        Phong { diffuse, specular, highlight }
     }
 
     /// The fraction of light from `ls` that reaches `si` (all of it without shadows), as
@@ -361,6 +418,23 @@ impl<'a> Integrator<'a> {
         }
         t
     }
+}
+
+/// Which light a light point belongs to, and how many points that light is shaded with here.
+#[derive(Clone, Copy)]
+struct LightPoint {
+    light: usize,
+    samples: u32,
+}
+
+/// The Phong BRDF's two terms times the cosine, and the highlight factor.
+struct Phong {
+    /// `kd (n.l)`.
+    diffuse: Color,
+    /// `ks max(0, r.v)^shininess`.
+    specular: Color,
+    /// `max(0, r.v)^shininess` (0 when `ks` is black, not computed then).
+    highlight: f32,
 }
 
 /// A direction around unit vector `axis` with density `(n + 1) / 2pi * cos^n(alpha)`, where

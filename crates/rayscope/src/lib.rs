@@ -3,7 +3,8 @@
 //! The library holds everything but the user interfaces. Its surface is small: a [`scene`] is
 //! loaded (from a file, an OBJ or a built-in) and seen through a [`camera`]; [`settings`] say
 //! how to render it; [`render`] makes an image into a [`film`] (and traces single pixels for
-//! the debugger, whose rays [`record`] keeps), [`progressive`] accumulates frames, [`aov`]
+//! the debugger, whose rays [`record`] keeps; [`debug`] traces every sample of a pixel and
+//! explains its colour), [`progressive`] accumulates frames, [`aov`]
 //! renders per-pixel facts of the first hits, and [`output`] writes images. The CLI and the
 //! viewer only map their inputs onto these types.
 //!
@@ -23,6 +24,7 @@
 
 pub mod aov;
 pub mod camera;
+pub mod debug;
 pub mod film;
 pub mod output;
 pub mod progressive;

@@ -74,6 +74,121 @@ pub trait RayRecorder {
     /// The current ray is done and returns `color`.
     #[inline(always)]
     fn end_ray(&mut self, _color: Color) {}
+    /// The current ray's weight: per channel, the product of the factors by which its light
+    /// reaches the pixel (1 for a camera ray; the sample's share of the pixel not counted).
+    #[inline(always)]
+    fn weight(&mut self, _weight: Color) {}
+    /// How the current ray's hit weighs what it gathers: see [`SurfaceFactors`].
+    #[inline(always)]
+    fn surface_factors(&mut self, _factors: &SurfaceFactors) {}
+    /// A light point was shaded at the current ray's hit: the terms of its Phong sum.
+    #[inline(always)]
+    fn light_term(&mut self, _term: &LightTerm) {}
+    /// A light point at the current ray's hit was skipped, with no shadow ray: see
+    /// [`SkipReason`].
+    #[inline(always)]
+    fn light_skipped(&mut self, _skip: &SkippedLight) {}
+}
+
+/// How a shaded surface weighs what it gathers, as the integrator applies it: its own light
+/// (direct and reflected) is scaled by the opacity `d` when the surface also transmits, the
+/// transmitted ray's light by `1 - d`, and the reflection by `ks` (and `1/n` for each of `n`
+/// glossy rays).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SurfaceFactors {
+    /// The material's specular reflectance: the reflection's weight.
+    pub ks: Color,
+    /// The opacity `d` when a transmission ray blends with the surface's own light; `None`
+    /// when the surface does not transmit (opaque, transparency off, or at the maximum depth).
+    pub opacity: Option<f32>,
+}
+
+/// One light point shaded as a point light, in the integrator's own terms: its colour is
+/// `arrived * light_color * (kd * cos + ks * highlight)`, and the light's contribution to the
+/// ray is the mean over its `samples` points.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LightTerm {
+    /// Index of the light.
+    pub light: usize,
+    /// The points the light is sampled with at this hit (1: its centre or a point light);
+    /// each weighs `1 / samples`.
+    pub samples: u32,
+    /// The point on the light.
+    #[serde(serialize_with = "as_array")]
+    pub to: Vec3A,
+    /// The diffuse colour at the hit (the texture's when textured).
+    pub kd: Color,
+    /// The cosine between the shading normal and the direction to the light point.
+    pub cos: f32,
+    /// The material's specular reflectance.
+    pub ks: Color,
+    /// The Phong highlight `max(0, r.v)^shininess` (0 when `ks` is black).
+    pub highlight: f32,
+    /// The light's colour at the point.
+    pub light_color: Color,
+    /// The fraction of the light the shadow ray let through (1 without shadows).
+    pub arrived: Color,
+    /// `arrived * light_color * kd * cos`.
+    pub diffuse: Color,
+    /// `arrived * light_color * ks * highlight`.
+    pub specular: Color,
+}
+
+/// A light point the integrator shaded no light from, with no shadow ray: it lies behind the
+/// surface.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SkippedLight {
+    /// Index of the light.
+    pub light: usize,
+    /// The point on the light.
+    #[serde(serialize_with = "as_array")]
+    pub to: Vec3A,
+    /// Which test it failed.
+    pub reason: SkipReason,
+}
+
+/// Why a light point was skipped: the integrator's three tests, in the order it makes them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SkipReason {
+    /// Behind the surface as the shading normal sees it (`cos <= 0`).
+    BehindShadingNormal,
+    /// In front of the shading normal but behind the geometric normal (an interpolated normal
+    /// tilted towards a light the triangle faces away from).
+    BehindGeometricNormal,
+    /// At no distance from the shading point.
+    ZeroDistance,
+}
+
+impl SkipReason {
+    /// The first test a light point fails, from the cosines with the shading and geometric
+    /// normals and its distance; `None` when it passes all three.
+    pub fn of(cos_shading: f32, cos_geometric: f32, distance: f32) -> Option<SkipReason> {
+        if cos_shading <= 0.0 {
+            Some(SkipReason::BehindShadingNormal)
+        } else if cos_geometric <= 0.0 {
+            Some(SkipReason::BehindGeometricNormal)
+        } else if distance <= 0.0 {
+            Some(SkipReason::ZeroDistance)
+        } else {
+            None
+        }
+    }
+}
+
+impl std::fmt::Display for SkipReason {
+    /// What the debugger says: "behind the surface (shading normal)".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SkipReason::BehindShadingNormal => "behind the surface (shading normal)",
+            SkipReason::BehindGeometricNormal => "behind the surface (geometric normal)",
+            SkipReason::ZeroDistance => "at the shading point",
+        })
+    }
+}
+
+fn as_array<S: serde::Serializer>(v: &Vec3A, s: S) -> Result<S::Ok, S::Error> {
+    v.to_array().serialize(s)
 }
 
 /// A secondary ray (or a glossy reflection's rays) that adaptive depth control did not cast:
@@ -152,6 +267,17 @@ pub struct RecordedRay {
     /// The branches of its hit that adaptive depth control did not cast.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub stopped: Vec<StoppedBranch>,
+    /// Its weight (see [`RayRecorder::weight`]).
+    pub weight: [f32; 3],
+    /// How its hit weighs what it gathers; `None` for a miss or with shading off.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceFactors>,
+    /// The light points shaded at its hit, in order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub light_terms: Vec<LightTerm>,
+    /// The light points skipped at its hit (behind the surface), in order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub skipped_lights: Vec<SkippedLight>,
 }
 
 impl std::fmt::Display for StoppedBranch {
@@ -244,6 +370,11 @@ impl RayTree {
         RayTree { rays: Vec::new(), cut: None, limit, recorded: 0, open: Vec::new() }
     }
 
+    /// Rays and shadow rays recorded, at most its limit.
+    pub fn recorded(&self) -> usize {
+        self.recorded
+    }
+
     /// Whether the tree has room for one more ray; counts the ray in [`RayTree::cut`] when not.
     fn room(&mut self, shadow: bool) -> bool {
         if self.recorded < self.limit {
@@ -286,6 +417,10 @@ impl RayRecorder for RayTree {
             shadows: Vec::new(),
             color: [0.0; 3],
             stopped: Vec::new(),
+            weight: [1.0; 3],
+            surface: None,
+            light_terms: Vec::new(),
+            skipped_lights: Vec::new(),
         });
         self.open.push(Some(self.rays.len() - 1));
     }
@@ -323,6 +458,30 @@ impl RayRecorder for RayTree {
     fn end_ray(&mut self, color: Color) {
         if let Some(Some(i)) = self.open.pop() {
             self.rays[i].color = color.to_array();
+        }
+    }
+
+    fn weight(&mut self, weight: Color) {
+        if let Some(r) = self.current() {
+            r.weight = weight.to_array();
+        }
+    }
+
+    fn surface_factors(&mut self, factors: &SurfaceFactors) {
+        if let Some(r) = self.current() {
+            r.surface = Some(*factors);
+        }
+    }
+
+    fn light_term(&mut self, term: &LightTerm) {
+        if let Some(r) = self.current() {
+            r.light_terms.push(*term);
+        }
+    }
+
+    fn light_skipped(&mut self, skip: &SkippedLight) {
+        if let Some(r) = self.current() {
+            r.skipped_lights.push(*skip);
         }
     }
 }

@@ -1,0 +1,90 @@
+//! Every sample of a pixel, traced as the renderer traces it.
+//!
+//! The film holds a pixel as the sum of its samples (each passed through
+//! [`finite_or_black`]) divided by their count, and the pixel filter is applied by warping
+//! where samples go, not by weighting them: every sample weighs the same `1 / spp`. Tracing the
+//! samples in order and summing them the same way gives the film's value bit for bit.
+
+use serde::Serialize;
+
+use crate::camera::CameraMotion;
+use crate::film::finite_or_black;
+use crate::math::Color;
+use crate::record::RayTree;
+use crate::render::trace_pixel;
+use crate::scene::Scene;
+use crate::settings::RenderSettings;
+
+/// Which of a pixel's samples to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SampleChoice {
+    /// All `spp` of them.
+    All,
+    /// Only this one (0 to `spp - 1`).
+    One(u32),
+}
+
+/// The samples of one pixel, with their ray trees.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PixelTrace {
+    /// The pixel, `[x, y]` from the top-left corner.
+    pub pixel: [u32; 2],
+    /// The samples traced, in sample order.
+    pub samples: Vec<SampleTrace>,
+    /// The pixel's value from these samples as the film computes it: with
+    /// [`SampleChoice::All`], bit-identical to [`crate::render::render`]'s film for this
+    /// pixel; with [`SampleChoice::One`], that sample's colour (as the film would add it).
+    pub value: Color,
+}
+
+/// One sample of a pixel.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SampleTrace {
+    /// Its index among the pixel's samples (it selects the sample's random numbers).
+    pub index: u32,
+    /// Its share of the pixel's value: `1 / samples traced`.
+    pub weight: f32,
+    /// The colour it traced (before [`finite_or_black`]).
+    pub color: Color,
+    /// True when the colour was not finite and the film adds black instead.
+    pub dropped: bool,
+    /// Its rays.
+    pub tree: RayTree,
+}
+
+/// Trace the samples `which` of pixel `(x, y)` through `camera` with `settings`, exactly as
+/// [`crate::render::render`] does, recording at most `max_rays` rays (shadow rays included)
+/// over all the samples together: the samples after the bound are traced and counted in their
+/// trees' [`RayTree::cut`], not recorded.
+pub fn trace_pixel_samples(
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: &CameraMotion,
+    x: u32,
+    y: u32,
+    which: SampleChoice,
+    max_rays: usize,
+) -> PixelTrace {
+    let indices = match which {
+        SampleChoice::All => 0..settings.spp,
+        SampleChoice::One(k) => k..k.saturating_add(1),
+    };
+    let count = indices.len();
+    let weight = 1.0 / count.max(1) as f32;
+    let mut budget = max_rays;
+    let mut sum = Color::ZERO;
+    let mut dropped = 0;
+    let mut samples = Vec::with_capacity(count);
+    for index in indices {
+        let mut tree = RayTree::with_limit(budget);
+        let color = trace_pixel(scene, settings, camera, x, y, index, &mut tree);
+        budget -= tree.recorded();
+        let before = dropped;
+        // Summed in sample order from zero, as the film sums them.
+        sum += finite_or_black(color, &mut dropped);
+        samples.push(SampleTrace { index, weight, color, dropped: dropped > before, tree });
+    }
+    // The film divides the sum by the count, as an `f32` (see `Film::get`).
+    let value = if count == 0 { Color::ZERO } else { sum / count as f32 };
+    PixelTrace { pixel: [x, y], samples, value }
+}
