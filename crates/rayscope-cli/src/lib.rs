@@ -99,6 +99,12 @@ struct ViewArgs {
     /// pixels: a larger one is cut from its top-left corner).
     #[arg(long, value_parser = parse_rect, value_name = "X0,Y0,X1,Y1")]
     debug_rect: Option<[(u32, u32); 2]>,
+    /// Which samples of the debugged pixels to trace: `all` (the default) or one index.
+    #[arg(long, value_parser = parse_samples, value_name = "all|K")]
+    samples: Option<SampleChoice>,
+    /// Highlight row N (from 0) of the debugged pixel's explanation table in 3D.
+    #[arg(long, value_name = "N")]
+    explain_row: Option<usize>,
     /// Width of the debugger's overlay lines, in points.
     #[arg(long, value_name = "W", value_parser = parse_line_width)]
     line_width: Option<f32>,
@@ -583,6 +589,8 @@ fn cmd_view(args: ViewArgs) -> Result<()> {
         debug_pixel: args.debug_pixel,
         debug_rect: args.debug_rect.map(|[a, b]| rayscope_viewer::state::PixelRect::spanning(a, b)),
         line_width: args.line_width,
+        samples: args.samples,
+        explain_row: args.explain_row,
         bvh_level: args.bvh_level,
         orbit: args.orbit,
         bvh_only_visited: args.bvh_visited,

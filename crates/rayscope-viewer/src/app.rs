@@ -7,8 +7,10 @@ use std::time::Instant;
 
 use egui::{Color32, Key, PointerButton, Pos2, Rect, Sense, Stroke, Vec2};
 use rayscope::camera::CameraMotion;
+use rayscope::debug::SampleChoice;
 use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, write_image};
+use rayscope::record::RayTree;
 use rayscope::scene::builtin;
 use rayscope::settings::{MAX_DEPTH, PixelFilter, RenderSettings, TextureFilter};
 
@@ -17,7 +19,7 @@ use crate::overlay::{ColorBy, LineKind, legend};
 use crate::plural::counted;
 use crate::preview::{Backdrop, LineVertex, OverlayDraw, Preview};
 use crate::session::{NO_DISPLAY_HINT, check_display};
-use crate::state::{ModeChoice, OverlayKey, PixelDebug, PixelRect, ViewKind, ViewerState};
+use crate::state::{Highlight, ModeChoice, OverlayKey, PixelDebug, PixelRect, ViewKind, ViewerState};
 use crate::worker::{FrameImage, RenderJob, Worker};
 
 /// The most rays the ray-tree panel lists: each is a widget drawn every frame, and a tree
@@ -41,6 +43,10 @@ pub struct ViewerOptions {
     pub debug_rect: Option<PixelRect>,
     /// Overlay line width in points (default [`crate::state::DEFAULT_LINE_WIDTH`]).
     pub line_width: Option<f32>,
+    /// Which samples of the debugged pixels to trace (default all).
+    pub samples: Option<SampleChoice>,
+    /// Highlight this row (from 0) of the first debugged pixel's explanation table.
+    pub explain_row: Option<usize>,
     /// Show this BVH level from the start.
     pub bvh_level: Option<u32>,
     /// Draw only the BVH nodes the debug pixel's camera ray entered.
@@ -125,6 +131,9 @@ impl RayscopeApp {
         if let Some(s) = opts.settings.clone() {
             state.set_settings(s);
         }
+        if let Some(s) = opts.samples {
+            state.samples = s;
+        }
         if let Some(v) = opts.view {
             state.view = v;
         }
@@ -139,6 +148,9 @@ impl RayscopeApp {
         }
         if let Some(w) = opts.line_width {
             state.line_width = w;
+        }
+        if let Some(row) = opts.explain_row {
+            state.highlight_term(row);
         }
         if let Some((dx, dy)) = opts.orbit {
             state.trackball.rotation.x = (state.trackball.rotation.x + dx).clamp(-89.0, 89.0);
@@ -428,16 +440,21 @@ impl RayscopeApp {
         let mut clear = false;
         if let Some(sel) = &st.selection {
             let mut listed = 0;
+            let several = sel.pixels.len() > 1;
             for (n, p) in sel.pixels.iter().enumerate() {
-                let rays = counted(p.tree.rays.len() as u64, "ray", "rays");
-                let title = if sel.pixels.len() == 1 {
-                    format!("Ray tree ({rays})")
-                } else {
-                    format!("Ray tree of ({}, {}) ({rays})", p.pixel.0, p.pixel.1)
-                };
-                egui::CollapsingHeader::new(title).id_salt(("tree", n)).default_open(n == 0).show(ui, |ui| {
-                    ray_list(ui, st, p, &mut listed);
-                });
+                for (k, sample) in p.trace.samples.iter().enumerate() {
+                    let rays = counted(sample.tree.rays.len() as u64, "ray", "rays");
+                    let of_pixel = if several { format!(" of ({}, {})", p.pixel.0, p.pixel.1) } else { String::new() };
+                    let of_sample =
+                        if p.trace.samples.len() > 1 { format!(" sample {}", sample.index) } else { String::new() };
+                    let title = format!("Ray tree{of_pixel}{of_sample} ({rays})");
+                    egui::CollapsingHeader::new(title).id_salt(("tree", n, k)).default_open(n == 0 && k == 0).show(
+                        ui,
+                        |ui| {
+                            ray_list(ui, st, &sample.tree, (p.pixel, sample.index), &mut listed);
+                        },
+                    );
+                }
             }
             if ui.button("Clear selection").on_hover_text("Stop debugging these pixels").clicked() {
                 clear = true;
@@ -445,6 +462,30 @@ impl RayscopeApp {
         }
         if clear {
             st.selection = None;
+        }
+        egui::CollapsingHeader::new("Samples").default_open(true).show(ui, |ui| {
+            let spp = st.settings.spp.max(1);
+            let mut choice = st.samples;
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut choice, SampleChoice::All, "All samples").on_hover_text(
+                    "Trace every sample of the pixel with the current settings (anti-aliasing, light and gloss \
+                     samples, lens, shutter time): their mean is the rendered pixel",
+                );
+                let one = matches!(choice, SampleChoice::One(_));
+                if ui.radio(one, "One sample").on_hover_text("Trace one sample, chosen by its index").clicked() && !one
+                {
+                    choice = SampleChoice::One(0);
+                }
+            });
+            if let SampleChoice::One(k) = &mut choice {
+                ui.add(egui::Slider::new(k, 0..=spp - 1).text("Sample index")).on_hover_text(
+                    "Which sample (0 to anti-aliasing rays - 1); it selects the sample's random numbers",
+                );
+            }
+            st.set_samples(choice);
+        });
+        if st.selection.is_some() {
+            egui::CollapsingHeader::new("Explanation").default_open(true).show(ui, |ui| explanation_table(ui, st));
         }
         egui::CollapsingHeader::new("Overlay").default_open(true).show(ui, |ui| {
             for kind in LineKind::ALL {
@@ -667,23 +708,24 @@ impl RayscopeApp {
 fn pixel_swatch(ui: &mut egui::Ui, p: &PixelDebug) {
     ui.horizontal(|ui| {
         ui.label(format!("pixel ({}, {})", p.pixel.0, p.pixel.1));
-        let c = p.color.clamp(glam::Vec3::ZERO, glam::Vec3::ONE) * 255.0;
+        let color = p.color();
+        let c = color.clamp(glam::Vec3::ZERO, glam::Vec3::ONE) * 255.0;
         let (r, _) = ui.allocate_exact_size(Vec2::splat(14.0), Sense::hover());
         ui.painter().rect_filled(r, 2.0, Color32::from_rgb(c.x as u8, c.y as u8, c.z as u8));
-        ui.label(format!("({:.3}, {:.3}, {:.3})", p.color.x, p.color.y, p.color.z));
+        ui.label(format!("({:.3}, {:.3}, {:.3})", color.x, color.y, color.z));
     });
 }
 
-/// The rays of one pixel's tree, each a collapsible entry; `listed` counts the entries of
-/// every tree so far, which stop at [`LISTED_RAYS`].
-fn ray_list(ui: &mut egui::Ui, st: &ViewerState, p: &PixelDebug, listed: &mut usize) {
-    if let Some(cut) = &p.tree.cut {
+/// The rays of one sample's tree, each a collapsible entry (`salt`: the pixel and sample, for
+/// their ids); `listed` counts the entries of every tree so far, which stop at [`LISTED_RAYS`].
+fn ray_list(ui: &mut egui::Ui, st: &ViewerState, tree: &RayTree, salt: ((u32, u32), u32), listed: &mut usize) {
+    if let Some(cut) = &tree.cut {
         ui.colored_label(ui.visuals().warn_fg_color, format!("Tree cut: {cut}"));
     }
     let room = LISTED_RAYS.saturating_sub(*listed);
-    for (i, r) in p.tree.rays.iter().enumerate().take(room) {
+    for (i, r) in tree.rays.iter().enumerate().take(room) {
         let title = format!("#{i} {:?} · depth {}", r.kind, r.depth);
-        egui::CollapsingHeader::new(title).id_salt(("ray", p.pixel, i)).default_open(i < 4).show(ui, |ui| {
+        egui::CollapsingHeader::new(title).id_salt(("ray", salt, i)).default_open(i < 4).show(ui, |ui| {
             match &r.hit {
                 None => {
                     ui.label("missed");
@@ -703,14 +745,83 @@ fn ray_list(ui: &mut egui::Ui, st: &ViewerState, p: &PixelDebug, listed: &mut us
             for stopped in &r.stopped {
                 ui.label(format!("adaptive depth control: {stopped}"));
             }
+            skipped_lights(ui, r);
         });
     }
-    *listed += p.tree.rays.len().min(room);
-    if let Some(more) = p.tree.rays.len().checked_sub(room).filter(|&n| n > 0) {
+    *listed += tree.rays.len().min(room);
+    if let Some(more) = tree.rays.len().checked_sub(room).filter(|&n| n > 0) {
         ui.label(format!(
             "… and {} more, not listed here (`rayscope debug` prints them all)",
             counted(more as u64, "ray", "rays")
         ));
+    }
+}
+
+/// The light points skipped at a ray's hit, counted per light and reason: "light 0: 3 points
+/// skipped, behind the surface (shading normal)".
+fn skipped_lights(ui: &mut egui::Ui, r: &rayscope::record::RecordedRay) {
+    let mut groups: Vec<(usize, rayscope::record::SkipReason, u64)> = Vec::new();
+    for s in &r.skipped_lights {
+        match groups.iter_mut().find(|g| g.0 == s.light && g.1 == s.reason) {
+            Some(g) => g.2 += 1,
+            None => groups.push((s.light, s.reason, 1)),
+        }
+    }
+    for (light, reason, n) in groups {
+        let points = counted(n, "point", "points");
+        ui.label(format!("light {light}: {points} skipped (no shadow ray), {reason}"));
+    }
+}
+
+/// Three decimals per channel, one number when they are equal.
+fn rgb3(c: glam::Vec3) -> String {
+    if c.x == c.y && c.y == c.z { format!("{:.3}", c.x) } else { format!("({:.3}, {:.3}, {:.3})", c.x, c.y, c.z) }
+}
+
+/// The first selected pixel's value as a sum of terms, one row per term; a click on a row
+/// highlights its ray, or its light and shadow rays, in 3D.
+fn explanation_table(ui: &mut egui::Ui, st: &mut ViewerState) {
+    let Some(p) = st.selection.as_ref().map(|s| s.first()) else { return };
+    let e = &p.explanation;
+    ui.label(format!("pixel ({}, {}) = the sum of these terms (click a row to see it in 3D)", p.pixel.0, p.pixel.1));
+    let mut pick = None;
+    egui::ScrollArea::both().max_height(320.0).id_salt("explanation").show(ui, |ui| {
+        egui::Grid::new("explanation-grid").striped(true).show(ui, |ui| {
+            for h in ["sample", "ray", "term", "factors", "value", "x weight", "x share", "= adds"] {
+                ui.strong(h);
+            }
+            ui.end_row();
+            for (i, t) in e.terms.iter().enumerate() {
+                let here = Highlight { sample: t.sample, ray: t.ray, light: t.light };
+                let on = st.highlight == Some(here);
+                if ui.selectable_label(on, t.sample.to_string()).clicked() {
+                    pick = Some(if on { None } else { Some(here) });
+                }
+                let kind = e.rays.iter().find(|r| r.sample == t.sample && r.ray == t.ray).map(|r| r.kind.noun());
+                if ui.selectable_label(on, format!("#{} {}", t.ray, kind.unwrap_or(""))).clicked() {
+                    pick = Some(Some(Highlight { light: None, ..here }));
+                }
+                let light = t.light.map_or(String::new(), |l| format!(" light {l}"));
+                ui.label(format!("{}{light}", t.kind.name())).on_hover_text(format!("term {i}"));
+                ui.label(t.factors_text());
+                ui.label(rgb3(t.value));
+                ui.label(rgb3(t.path_weight));
+                ui.label(format!("{:.3}", t.sample_weight));
+                ui.label(rgb3(t.contribution));
+                ui.end_row();
+            }
+        });
+    });
+    ui.label(format!("sum of the terms: ({:.6}, {:.6}, {:.6})", e.sum.x, e.sum.y, e.sum.z));
+    ui.label(format!("the pixel (renderer): ({:.6}, {:.6}, {:.6})", e.value.x, e.value.y, e.value.z));
+    if !e.complete {
+        ui.colored_label(ui.visuals().warn_fg_color, "a ray tree was cut: the terms of unrecorded rays are missing");
+    }
+    for s in &e.dropped_samples {
+        ui.label(format!("sample {s}: not finite, added as black"));
+    }
+    if let Some(h) = pick {
+        st.highlight = h;
     }
 }
 

@@ -78,7 +78,10 @@ impl LineKind {
                 "Shadow rays an opaque surface stopped: in the light's colour up to the blocker (a red cross), \
                  dark past it"
             }
-            LineKind::LightSamples => "A small cross at each point sampled on a light: green reached, red blocked",
+            LineKind::LightSamples => {
+                "A small cross at each point sampled on a light: green reached, red blocked, violet skipped \
+                 (behind the surface, no shadow ray cast)"
+            }
             LineKind::Normals => {
                 "Each hit triangle's outline (pink), its geometric normal (blue) and, where shading uses \
                  another, the interpolated normal (cyan)"
@@ -145,6 +148,8 @@ pub const SHADING_NORMAL_COLOR: [f32; 4] = [0.2, 0.95, 1.0, 1.0];
 pub const BOX_COLOR: [f32; 4] = [0.3, 0.9, 0.9, 0.8];
 /// BVH leaves.
 pub const LEAF_COLOR: [f32; 4] = [1.0, 0.55, 0.1, 0.9];
+/// A light point the integrator skipped (behind the surface): no shadow ray was cast.
+pub const SKIPPED_COLOR: [f32; 4] = [0.65, 0.5, 1.0, 1.0];
 /// What the explanation table's selected row points at (a ray or a light's shadow rays).
 pub const HIGHLIGHT_COLOR: [f32; 4] = [1.0, 1.0, 0.0, 1.0];
 
@@ -213,6 +218,7 @@ pub fn legend(color_by: ColorBy) -> Vec<LegendEntry> {
     out.push(entry([1.0, 0.9, 0.6, 1.0], "blocked shadow ray, up to its blocker: the light's colour"));
     out.push(entry(BLOCKED_COLOR, "the blocker (cross); an unreached light sample"));
     out.push(entry(PAST_BLOCKER_COLOR, "blocked shadow ray past its blocker"));
+    out.push(entry(SKIPPED_COLOR, "a light point skipped (behind the surface): no shadow ray"));
     out.push(entry(TRIANGLE_COLOR, "the hit triangle"));
     out.push(entry(NORMAL_COLOR, "geometric normal"));
     out.push(entry(SHADING_NORMAL_COLOR, "shading (interpolated) normal"));

@@ -8,22 +8,24 @@ use std::sync::Arc;
 use egui::{Pos2, Rect};
 use glam::Vec3;
 use rayscope::camera::CameraMotion;
+use rayscope::debug::{Explanation, PixelTrace, SampleChoice, trace_pixel_samples};
 use rayscope::math::Vec3A;
 use rayscope::progressive::ImagingMode;
 use rayscope::record::RayTree;
-use rayscope::render::trace_pixel;
 use rayscope::scene::{Scene, builtin};
 use rayscope::settings::RenderSettings;
 
 use crate::overlay::{
-    BLOCKED_COLOR, BOX_COLOR, ColorBy, LEAF_COLOR, LineKind, Lines, MISS_COLOR, NORMAL_COLOR, PAST_BLOCKER_COLOR,
-    REACHED_COLOR, SHADING_NORMAL_COLOR, ShownKinds, TRIANGLE_COLOR, depth_color, kind_color, light_line_color,
+    BLOCKED_COLOR, BOX_COLOR, ColorBy, HIGHLIGHT_COLOR, LEAF_COLOR, LineKind, Lines, MISS_COLOR, NORMAL_COLOR,
+    PAST_BLOCKER_COLOR, REACHED_COLOR, SHADING_NORMAL_COLOR, SKIPPED_COLOR, ShownKinds, TRIANGLE_COLOR, depth_color,
+    kind_color, light_line_color,
 };
 use crate::preview::LineVertex;
 use crate::trackball::Trackball;
 
-/// The most rays (shadow rays included) the viewer records for a debugged pixel, a tenth of
-/// `rayscope debug`'s bound: the 3D view draws every recorded ray in every frame.
+/// The most rays (shadow rays included) the viewer records for a debugged pixel, over all its
+/// samples, a tenth of `rayscope debug`'s bound: the 3D view draws every recorded ray in every
+/// frame.
 pub const RECORDED_RAYS: usize = 10_000;
 
 /// The most pixels a dragged rectangle selects: their trees are drawn together, and more would
@@ -60,12 +62,37 @@ pub enum ModeChoice {
 pub struct PixelDebug {
     /// Pixel `(x, y)`, row 0 at the top.
     pub pixel: (u32, u32),
-    /// Every ray of its first sample, as the renderer traced them.
-    pub tree: RayTree,
-    /// The sample's colour.
-    pub color: Vec3,
-    /// BVH nodes the camera ray entered.
+    /// Its samples (all, or the one chosen) with every ray, as the renderer traced them; with
+    /// all samples its value is the film's.
+    pub trace: PixelTrace,
+    /// Its value as a sum of terms.
+    pub explanation: Explanation,
+    /// BVH nodes the camera rays entered.
     pub visited: Vec<u32>,
+}
+
+impl PixelDebug {
+    /// The pixel's value from the samples traced.
+    pub fn color(&self) -> Vec3 {
+        self.trace.value
+    }
+
+    /// The samples' ray trees.
+    pub fn trees(&self) -> impl Iterator<Item = &RayTree> {
+        self.trace.samples.iter().map(|s| &s.tree)
+    }
+}
+
+/// What the explanation table's selected row points at in 3D: a ray of a sample, or the
+/// shadow rays from it to one light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Highlight {
+    /// The sample's index.
+    pub sample: u32,
+    /// The ray's index in the sample's tree.
+    pub ray: usize,
+    /// The light, for a light's term.
+    pub light: Option<usize>,
 }
 
 /// The debugged pixels: one clicked, or a dragged rectangle of up to [`MAX_RECT_PIXELS`].
@@ -133,6 +160,7 @@ pub struct OverlayKey {
     shown: ShownKinds,
     max_depth_shown: u32,
     color_by: ColorBy,
+    highlight: Option<Highlight>,
     selection: Option<u64>,
 }
 
@@ -172,6 +200,10 @@ pub struct ViewerState {
     pub color_by: ColorBy,
     /// Overlay line width in points.
     pub line_width: f32,
+    /// Which samples of a pixel are traced.
+    pub samples: SampleChoice,
+    /// The explanation row picked, drawn highlighted (of the first selected pixel).
+    pub highlight: Option<Highlight>,
     /// Whether a primary drag selects a rectangle of pixels (else it orbits; Ctrl-drag
     /// selects either way).
     pub rect_tool: bool,
@@ -203,6 +235,8 @@ impl ViewerState {
             color_by: ColorBy::Depth,
             line_width: DEFAULT_LINE_WIDTH,
             rect_tool: false,
+            samples: SampleChoice::All,
+            highlight: None,
             generation: 0,
         };
         s.load_scene(spec);
@@ -346,20 +380,44 @@ impl ViewerState {
         static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         self.selection = Some(Selection { pixels, clamped, id });
+        self.highlight = None;
     }
 
     fn debug_pixel(&self, x: u32, y: u32) -> PixelDebug {
         let camera = self.camera();
-        let mut tree = RayTree::with_limit(RECORDED_RAYS);
-        let color = trace_pixel(&self.scene, &self.settings, &camera, x, y, 0, &mut tree);
-        let visited = match tree.rays.first() {
-            Some(r) => {
+        let which = match self.samples {
+            SampleChoice::One(k) => SampleChoice::One(k.min(self.settings.spp.max(1) - 1)),
+            all => all,
+        };
+        let trace = trace_pixel_samples(&self.scene, &self.settings, &camera, x, y, which, RECORDED_RAYS);
+        let mut visited: Vec<u32> = trace
+            .samples
+            .iter()
+            .filter_map(|s| s.tree.rays.first())
+            .flat_map(|r| {
                 let ray = rayscope::ray::Ray::new(Vec3A::from_array(r.origin), Vec3A::from_array(r.dir));
                 self.scene.visited_nodes(&ray)
-            }
-            None => Vec::new(),
-        };
-        PixelDebug { pixel: (x, y), tree, color, visited }
+            })
+            .collect();
+        visited.sort_unstable();
+        visited.dedup();
+        let explanation = trace.explain();
+        PixelDebug { pixel: (x, y), trace, explanation, visited }
+    }
+
+    /// Highlight term `row` of the first selected pixel's explanation (nothing when there is
+    /// no such row).
+    pub fn highlight_term(&mut self, row: usize) {
+        let term = self.selection.as_ref().and_then(|s| s.first().explanation.terms.get(row));
+        self.highlight = term.map(|t| Highlight { sample: t.sample, ray: t.ray, light: t.light });
+    }
+
+    /// Trace other samples of the selected pixels: all, or one by index.
+    pub fn set_samples(&mut self, samples: SampleChoice) {
+        if samples != self.samples {
+            self.samples = samples;
+            self.retrace();
+        }
     }
 
     /// Re-trace the selected pixels (after a settings change); the camera it was traced with is
@@ -389,6 +447,7 @@ impl ViewerState {
             shown: self.shown,
             max_depth_shown: self.max_depth_shown,
             color_by: self.color_by,
+            highlight: self.highlight,
             selection: self.selection.as_ref().map(|s| s.id),
         }
     }
@@ -413,9 +472,40 @@ impl ViewerState {
             }
         }
         for p in self.selection.iter().flat_map(|s| &s.pixels) {
-            self.ray_tree_lines(&mut out, &p.tree, r);
+            for tree in p.trees() {
+                self.ray_tree_lines(&mut out, tree, r);
+            }
+        }
+        if let Some(h) = self.highlight {
+            self.highlight_lines(&mut out, h, r);
         }
         out.0
+    }
+
+    /// The highlighted ray of the first pixel (drawn again on top, in the highlight colour),
+    /// or its shadow rays to one light and that light.
+    fn highlight_lines(&self, out: &mut Lines, h: Highlight, r: f32) {
+        let Some(p) = self.selection.as_ref().map(|s| s.first()) else { return };
+        let Some(ray) = p.trace.samples.iter().find(|s| s.index == h.sample).and_then(|s| s.tree.rays.get(h.ray))
+        else {
+            return;
+        };
+        let o = Vec3::from_array(ray.origin);
+        let end = ray.hit.map_or(o + Vec3::from_array(ray.dir) * (4.0 * r), |hit| Vec3::from_array(hit.point));
+        match h.light {
+            None => out.line(o, end, HIGHLIGHT_COLOR),
+            Some(l) => {
+                for s in ray.shadows.iter().filter(|s| s.light == l) {
+                    out.line(Vec3::from_array(s.from), Vec3::from_array(s.to), HIGHLIGHT_COLOR);
+                }
+                for t in ray.light_terms.iter().filter(|t| t.light == l) {
+                    out.cross(t.to.into(), 0.02 * r, HIGHLIGHT_COLOR);
+                }
+                if let Some(light) = self.scene.lights.get(l) {
+                    out.light(light, r, Some(HIGHLIGHT_COLOR));
+                }
+            }
+        }
     }
 
     fn ray_tree_lines(&self, out: &mut Lines, tree: &RayTree, r: f32) {
@@ -478,6 +568,13 @@ impl ViewerState {
                     out.cross(to, 0.012 * r, if reached { REACHED_COLOR } else { BLOCKED_COLOR });
                 }
             }
+            // Light points the integrator skipped (behind the surface): no shadow ray, a
+            // cross in their own colour; the panel gives the reason.
+            if shown(LineKind::LightSamples) {
+                for skip in &ray.skipped_lights {
+                    out.cross(skip.to.into(), 0.012 * r, SKIPPED_COLOR);
+                }
+            }
         }
     }
 }
@@ -486,6 +583,7 @@ impl ViewerState {
 mod tests {
     use super::*;
     use rayscope::record::RayKind;
+    use rayscope::render::{render, trace_pixel};
 
     fn state() -> ViewerState {
         ViewerState::new("cornell-box", None)
@@ -510,8 +608,8 @@ mod tests {
         let sel = s.selection.as_ref().unwrap().first();
         let mut tree = RayTree::with_limit(RECORDED_RAYS);
         let color = trace_pixel(&s.scene, &s.settings, &s.scene.camera_motion(), 400, 400, 0, &mut tree);
-        assert_eq!(sel.tree, tree);
-        assert_eq!(sel.color, color);
+        assert_eq!(sel.trace.samples[0].tree, tree);
+        assert_eq!(sel.color(), color);
         assert!(!sel.visited.is_empty() && sel.visited[0] == 0, "traversal starts at the root");
         // The tree's lines are drawn: camera ray white, shadow rays, normals, triangle.
         let lines = s.overlay_lines();
@@ -542,9 +640,9 @@ mod tests {
     fn settings_changes_retrace_the_selection() {
         let mut s = state();
         s.select_pixel(400, 400);
-        let with = s.selection.as_ref().unwrap().first().tree.rays[0].shadows.len();
+        let with = s.selection.as_ref().unwrap().first().trace.samples[0].tree.rays[0].shadows.len();
         s.set_settings(RenderSettings { shadows: false, ..s.settings.clone() });
-        let without = s.selection.as_ref().unwrap().first().tree.rays[0].shadows.len();
+        let without = s.selection.as_ref().unwrap().first().trace.samples[0].tree.rays[0].shadows.len();
         assert!(with > 0 && without == 0);
     }
 
@@ -609,7 +707,7 @@ mod tests {
         let mut s = state();
         s.settings.light_samples = 16;
         s.select_pixel(400, 400);
-        let tree = s.selection.as_ref().unwrap().first().tree.clone();
+        let tree = s.selection.as_ref().unwrap().first().trace.samples[0].tree.clone();
         let rays = |k: RayKind| tree.rays.iter().filter(|r| r.kind == k).count();
         let (camera, reflections) = (rays(RayKind::Camera), rays(RayKind::Reflection));
         assert!(camera == 1 && reflections >= 1);
@@ -647,7 +745,7 @@ mod tests {
         let grid = (0..800).step_by(25).flat_map(|y| (0..800).step_by(25).map(move |x| (x, y)));
         let blocked = grid.into_iter().find_map(|(x, y)| {
             s.select_pixel(x, y);
-            let t = &s.selection.as_ref().unwrap().first().tree;
+            let t = &s.selection.as_ref().unwrap().first().trace.samples[0].tree;
             t.rays.iter().flat_map(|r| &r.shadows).find(|sh| sh.blocked_at.is_some()).copied()
         });
         let sh = blocked.expect("some pixel is in shadow");
@@ -663,7 +761,7 @@ mod tests {
     fn the_depth_shown_limits_the_tree() {
         let mut s = state();
         s.select_pixel(400, 400);
-        let tree = s.selection.as_ref().unwrap().first().tree.clone();
+        let tree = s.selection.as_ref().unwrap().first().trace.samples[0].tree.clone();
         let mut last = usize::MAX;
         for d in (0..=2).rev() {
             s.max_depth_shown = d;
@@ -691,7 +789,7 @@ mod tests {
         for (p, want) in sel.pixels.iter().zip(PixelRect::spanning((400, 400), (403, 402)).pixels()) {
             let mut tree = RayTree::with_limit(RECORDED_RAYS);
             let c = trace_pixel(&s.scene, &s.settings, &s.camera(), want.0, want.1, 0, &mut tree);
-            assert_eq!((p.pixel, &p.tree, p.color), (want, &tree, c));
+            assert_eq!((p.pixel, &p.trace.samples[0].tree, p.color()), (want, &tree, c));
         }
         assert_eq!(drawn(&mut s, LineKind::Camera), 12, "one tree per pixel, drawn together");
         // A large drag is cut to 64 pixels from its top-left corner, and says so.
@@ -708,6 +806,91 @@ mod tests {
         assert_eq!(s.selection.as_ref().unwrap().pixels.len(), 4);
         s.set_settings(RenderSettings { shadows: false, ..s.settings.clone() });
         assert_eq!(s.selection.as_ref().unwrap().pixels.len(), 4);
+    }
+
+    #[test]
+    fn every_sample_is_drawn_and_the_pixel_is_the_films() {
+        // Nine anti-aliasing samples and soft shadows: the selection traces them all, its value
+        // is the rendered pixel's bit for bit, and every sample's tree is drawn.
+        let mut s = state();
+        let settings = RenderSettings { spp: 9, light_samples: 4, width: 64, height: 64, ..s.settings.clone() };
+        s.set_settings(settings.clone());
+        let film = render(&s.scene, &settings, &|_| {}).film;
+        for (x, y) in [(32, 32), (10, 50), (50, 12)] {
+            s.select_pixel(x, y);
+            let p = s.selection.as_ref().unwrap().first().clone();
+            assert_eq!(p.trace.samples.len(), 9);
+            assert_eq!(p.color(), film.get(x, y), "pixel ({x}, {y})");
+            for sample in &p.trace.samples {
+                let mut tree = RayTree::with_limit(RECORDED_RAYS);
+                trace_pixel(&s.scene, &settings, &s.camera(), x, y, sample.index, &mut tree);
+                assert_eq!(sample.tree.rays.len(), tree.rays.len(), "sample {}", sample.index);
+            }
+            assert_eq!(drawn(&mut s, LineKind::Camera), 9, "a camera ray per sample");
+            // The explanation's terms sum to the pixel.
+            let e = &p.explanation;
+            assert!((e.sum - e.value).abs().max_element() <= 1e-4 * e.value.max_element().max(1.0), "{e:?}");
+        }
+        // One sample by index: its tree alone.
+        s.set_samples(SampleChoice::One(4));
+        let p = s.selection.as_ref().unwrap().first();
+        assert_eq!(p.trace.samples.iter().map(|t| t.index).collect::<Vec<_>>(), [4]);
+        assert_eq!(drawn(&mut s, LineKind::Camera), 1);
+        // An index past spp is the last sample.
+        s.set_samples(SampleChoice::One(40));
+        assert_eq!(s.selection.as_ref().unwrap().first().trace.samples[0].index, 8);
+    }
+
+    #[test]
+    fn an_explanation_row_highlights_its_ray_or_light() {
+        let mut s = state();
+        s.select_pixel(400, 400);
+        let e = s.selection.as_ref().unwrap().first().explanation.clone();
+        let term = e.terms.iter().find(|t| t.light.is_some()).expect("a light term");
+        let key = s.overlay_key();
+        s.highlight = Some(Highlight { sample: term.sample, ray: term.ray, light: term.light });
+        assert_ne!(s.overlay_key(), key, "the highlight changes the lines");
+        let lines = s.overlay_lines();
+        let tree = &s.selection.as_ref().unwrap().first().trace.samples[0].tree;
+        let shadows = tree.rays[term.ray].shadows.iter().filter(|sh| Some(sh.light) == term.light).count();
+        assert!(segments(&lines, HIGHLIGHT_COLOR) > shadows, "its shadow rays and the light");
+        // A ray's row: that ray, once.
+        s.highlight = Some(Highlight { sample: 0, ray: 1, light: None });
+        let ray = &tree.rays[1];
+        let lines = s.overlay_lines();
+        let hl: Vec<_> = lines.chunks(2).filter(|v| v[0].color == HIGHLIGHT_COLOR).collect();
+        assert_eq!(hl.len(), 1);
+        assert_eq!(hl[0][0].pos, ray.origin);
+        // A new selection forgets the row.
+        s.select_pixel(10, 10);
+        assert_eq!(s.highlight, None);
+    }
+
+    #[test]
+    fn skipped_light_points_are_drawn() {
+        // A sphere lit from straight behind as the camera sees it: the light is behind the
+        // surface the camera ray hits.
+        let dir = std::env::temp_dir().join(format!("rayscope-skipped-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("s.toml");
+        let scene = |light: Vec3| {
+            format!(
+                "[[sphere]]\ncenter = [0, 0, 0]\nradius = 0.5\n[[light]]\nkind = \"point\"\nposition = [{}, {}, {}]\n\
+                 color = [1, 1, 1]\n",
+                light.x, light.y, light.z
+            )
+        };
+        std::fs::write(&file, scene(Vec3::Y * 10.0)).unwrap();
+        let eye = Vec3::from(ViewerState::new(file.to_str().unwrap(), None).camera().start.position);
+        std::fs::write(&file, scene(-3.0 * eye)).unwrap();
+        let mut s = ViewerState::new(file.to_str().unwrap(), None);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        s.select_pixel(400, 400);
+        let tree = &s.selection.as_ref().unwrap().first().trace.samples[0].tree;
+        let skipped = tree.rays.iter().map(|r| r.skipped_lights.len()).sum::<usize>();
+        assert!(skipped > 0, "the sphere's front faces the camera, the light is behind it");
+        assert_eq!(segments(&s.overlay_lines(), SKIPPED_COLOR), 3 * skipped);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -85,7 +85,7 @@ fn click_a_pixel_and_see_its_ray_tree() {
     click(&mut h, rect.center());
     let sel = h.state().state.selection.as_ref().expect("the click selected a pixel");
     assert_eq!(sel.first().pixel, (400, 400));
-    assert!(sel.first().tree.rays.len() >= 2, "camera ray and the mirror's reflection");
+    assert!(sel.first().trace.samples[0].tree.rays.len() >= 2, "camera ray and the mirror's reflection");
     // The panel lists the tree.
     h.get_by_label_contains("Ray tree (");
     h.get_by_label_contains("#1 Reflection");
@@ -226,7 +226,7 @@ fn the_ray_panel_explains_stopped_branches_and_a_cut_tree() {
     // The camera ray's reflection and transmission weigh 0.5 each: below 0.6, neither is cast.
     let Some(mut h) = open(rayscope::settings::RenderSettings { adc_bailout: 0.6, ..small.clone() }) else { return };
     wait_frames(&mut h, 1);
-    assert_eq!(h.state().state.selection.as_ref().unwrap().first().tree.rays[0].stopped.len(), 2);
+    assert_eq!(h.state().state.selection.as_ref().unwrap().first().trace.samples[0].tree.rays[0].stopped.len(), 2);
     h.get_by_label("adaptive depth control: reflection not cast: weight 0.5 below adc_bailout 0.6");
     h.get_by_label("adaptive depth control: transmission not cast: weight 0.5 below adc_bailout 0.6");
     // Its slider shows the value, not one clamped to a narrower range.
@@ -239,9 +239,22 @@ fn the_ray_panel_explains_stopped_branches_and_a_cut_tree() {
     wait_frames(&mut h, 1);
     // (The max-depth slider kept 22: it clamped to 10 before.)
     assert_eq!(h.state().state.settings.max_depth, 22);
-    assert!(h.state().state.selection.as_ref().unwrap().first().tree.cut.is_some());
+    assert!(h.state().state.selection.as_ref().unwrap().first().trace.samples[0].tree.cut.is_some());
     h.get_by_label_contains("Tree cut: the first 10000 rays and shadow rays are recorded");
     h.get_by_label_contains("more, not listed here");
+}
+
+/// The Cornell box with `settings`, its centre pixel (400, 400) debugged, and a frame rendered.
+fn cornell_box_centre(settings: rayscope::settings::RenderSettings) -> Option<Harness<'static, RayscopeApp>> {
+    let opts = ViewerOptions {
+        scene: "cornell-box".into(),
+        settings: Some(settings),
+        debug_pixel: Some((400, 400)),
+        ..Default::default()
+    };
+    let mut h = harness(opts)?;
+    wait_frames(&mut h, 1);
+    Some(h)
 }
 
 /// Pixels of the viewport that a kind of line adds: the view rendered with it, less without.
@@ -260,15 +273,10 @@ fn added_by(h: &mut Harness<'_, RayscopeApp>, kind: rayscope_viewer::overlay::Li
 #[test]
 fn the_overlay_is_drawn_in_every_view_and_each_kind_toggles() {
     use rayscope_viewer::overlay::{LineKind, REACHED_COLOR, TRIANGLE_COLOR};
-    let settings = rayscope::settings::RenderSettings { light_samples: 8, ..Default::default() };
-    let opts = ViewerOptions {
-        scene: "cornell-box".into(),
-        settings: Some(settings),
-        debug_pixel: Some((400, 400)),
-        ..Default::default()
+    let Some(mut h) = cornell_box_centre(rayscope::settings::RenderSettings { light_samples: 8, ..Default::default() })
+    else {
+        return;
     };
-    let Some(mut h) = harness(opts) else { return };
-    wait_frames(&mut h, 1);
     for (view, label) in
         [(ViewKind::Raster, "Raster"), (ViewKind::RayTraced, "Ray traced"), (ViewKind::HeatMap, "Heat map")]
     {
@@ -291,7 +299,9 @@ fn the_overlay_is_drawn_in_every_view_and_each_kind_toggles() {
     h.run_steps(3);
     let wide = added_by(&mut h, LineKind::Normals, TRIANGLE_COLOR);
     assert!(wide > 2 * thin, "width 5 covers more than width 1.5: {wide} vs {thin}");
-    // The legend names the colours.
+    // The legend names the colours (with no selection, so that it is in view).
+    h.state_mut().state.selection = None;
+    h.run_steps(2);
     h.get_by_label("Legend").click();
     h.run_steps(2);
     h.get_by_label_contains("shadow ray that reached the light");
@@ -341,4 +351,31 @@ fn ctrl_drag_selects_a_rectangle_and_a_drag_still_orbits() {
     // A plain drag orbits.
     drag(&mut h, (400.0, 400.0), (500.0, 420.0), Modifiers::NONE);
     assert_ne!(h.state().state.trackball.rotation, rotation);
+}
+
+#[test]
+fn every_sample_and_the_explanation_table() {
+    let Some(mut h) =
+        cornell_box_centre(rayscope::settings::RenderSettings { spp: 4, light_samples: 4, ..Default::default() })
+    else {
+        return;
+    };
+    let p = h.state().state.selection.as_ref().unwrap().first().clone();
+    assert_eq!(p.trace.samples.len(), 4, "all samples by default");
+    h.get_by_label_contains("Ray tree sample 3 (");
+    // The table: its sum beside the renderer's value, and a row that highlights in 3D.
+    h.get_by_label_contains("sum of the terms");
+    h.get_by_label_contains("the pixel (renderer)");
+    assert_eq!(h.state().state.highlight, None);
+    h.get_all_by_label("diffuse light 0").next().expect("a diffuse row");
+    let first = p.explanation.terms[0];
+    h.get_all_by_label(&first.sample.to_string()).next().unwrap().click();
+    h.run_steps(3);
+    let hl = h.state().state.highlight.expect("the row is highlighted");
+    assert_eq!((hl.sample, hl.ray, hl.light), (first.sample, first.ray, first.light));
+    // One sample by index.
+    h.get_by_label("One sample").click();
+    h.run_steps(3);
+    assert_eq!(h.state().state.samples, rayscope::debug::SampleChoice::One(0));
+    assert_eq!(h.state().state.selection.as_ref().unwrap().first().trace.samples.len(), 1);
 }
