@@ -13,6 +13,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod bench;
+mod bvh_obj;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -288,6 +289,14 @@ struct DebugArgs {
     /// the rest are traced but not printed.
     #[arg(long, value_name = "N", default_value_t = MAX_RECORDED_RAYS)]
     max_rays: usize,
+    /// Also write the boxes of BVH level N (its nodes, and the leaves at or above it) to
+    /// FILE.obj as line cubes, one group for the nodes and one for the leaves.
+    #[arg(long, num_args = 2, value_names = ["N", "FILE.obj"])]
+    export_bvh_level: Option<Vec<String>>,
+    /// The tree --export-bvh-level writes: the wide tree rendering traverses, or the course's
+    /// binary tree.
+    #[arg(long, value_enum, default_value_t = bvh_obj::BvhTree::Wide, requires = "export_bvh_level")]
+    bvh_tree: bvh_obj::BvhTree,
 }
 
 fn parse_samples(s: &str) -> Result<SampleChoice, String> {
@@ -661,6 +670,11 @@ fn cmd_debug(args: DebugArgs) -> Result<()> {
             counted(counts.segments as u64, "segment", "segments"),
             counted(counts.points as u64, "point", "points")
         );
+    }
+    if let Some([level, path]) = args.export_bvh_level.as_deref() {
+        let level: u32 = level.parse().map_err(|_| anyhow::anyhow!("--export-bvh-level: '{level}' is not a level"))?;
+        let boxes = bvh_obj::export_level(&scene, args.bvh_tree, level, path.as_ref())?;
+        eprintln!("wrote {}: {}", path, counted(boxes as u64, "box", "boxes"));
     }
     // Streamed: a tree at its bound is about 70 MB of text, which need not be held as well
     // (the peak of a 100 000-ray tree falls from 280 to 210 MB).

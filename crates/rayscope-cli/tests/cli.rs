@@ -613,3 +613,63 @@ fn adc_bailout_is_checked_from_the_flag_and_the_scene_file() {
     let o = rayscope(d, &["debug", "off.toml", "--pixel", "4,4", "--adc-bailout", "0.3"]);
     assert!(stderr(&o).contains("below adc_bailout 0.3"), "{}", stderr(&o));
 }
+
+#[test]
+fn debug_records_the_traversal_and_exports_a_bvh_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = rayscope::scene::Scene::load("cornell-box", None).unwrap();
+    // The JSON gives each ray what the renderer's traversal entered.
+    let o = rayscope(d, &["debug", "--pixel", "400,400", "--export-bvh-level", "1", "wide.obj"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let camera = &v["rays"][0]["traversal"];
+    assert_eq!(camera["query"], "packet", "{camera}");
+    assert_eq!(camera["visits"][0]["at"]["node"], 0, "{camera}");
+    assert!(camera["t_max"].is_null() && camera["t_min"] == 0.0, "{camera}");
+    let shadow = &v["rays"][0]["shadows"][0]["traversals"][0];
+    assert_eq!(shadow["query"], "any-hit", "{shadow}");
+    assert!(shadow["t_max"].as_f64().unwrap() > 0.0, "{shadow}");
+
+    // The OBJ reloads with 8 corners and 12 edges a box, as many boxes as the level has.
+    let check = |file: &str, boxes: usize| {
+        let text = std::fs::read_to_string(d.join(file)).unwrap();
+        let vertices: Vec<[f32; 3]> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| {
+                let c: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                [c[0], c[1], c[2]]
+            })
+            .collect();
+        let segments: Vec<(usize, usize)> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("l "))
+            .map(|l| {
+                let i: Vec<usize> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                assert_eq!(i.len(), 2, "{l}");
+                (i[0], i[1])
+            })
+            .collect();
+        assert_eq!((vertices.len(), segments.len()), (8 * boxes, 12 * boxes), "{file}");
+        // Every segment is an edge of its own box: both ends in it, one axis apart.
+        for &(a, b) in &segments {
+            assert!(a >= 1 && b >= 1 && (a - 1) / 8 == (b - 1) / 8, "{file}: {a} {b}");
+            let (p, q) = (vertices[a - 1], vertices[b - 1]);
+            assert_eq!((0..3).filter(|&k| p[k] != q[k]).count(), 1, "{file}: {p:?} {q:?}");
+        }
+        assert!(text.contains("g level-") && text.contains("-nodes") && text.contains("-leaves"), "{file}");
+    };
+    check("wide.obj", scene.wide_boxes_at_level(1).len());
+    for level in [0, 2] {
+        let file = format!("binary{level}.obj");
+        let level_arg = level.to_string();
+        let args = ["debug", "--pixel", "1,1", "--export-bvh-level", &level_arg, &file, "--bvh-tree", "binary"];
+        let o = rayscope(d, &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        check(&file, scene.geometry.bvh.boxes_at_level(level).len());
+    }
+    fails_with(d, &["debug", "--pixel", "1,1", "--export-bvh-level", "99", "x.obj"], &["level 99 does not exist"]);
+    fails_with(d, &["debug", "--pixel", "1,1", "--export-bvh-level", "two", "x.obj"], &["'two' is not a level"]);
+    assert!(!d.join("x.obj").exists());
+}

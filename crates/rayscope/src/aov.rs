@@ -1,19 +1,22 @@
 //! Arbitrary output variables: per-pixel facts about the first hit of each camera ray (depth,
 //! position, normal, albedo, primitive id, BVH nodes visited), rendered in parallel tiles
-//! beside the colour image.
+//! beside the colour image. The camera rays go through the BVH as the renderer's do: in
+//! packets of a row's [`PACKET`] neighbouring pixels, so that the heat map counts what the
+//! renderer's traversal does.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::bvh::TraversalStats;
+use crate::bvh::{PACKET, TraversalStats};
 use crate::camera::{Camera, RayGenerator};
 use crate::film::FloatImage;
 use crate::math::Vec2;
+use crate::ray::Ray;
 use crate::render::RenderProgress;
-use crate::scene::Scene;
-use crate::settings::RenderSettings;
+use crate::scene::{Hit, Scene};
+use crate::settings::{RenderSettings, ShadingOptions};
 
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -30,7 +33,9 @@ pub enum Aov {
     Albedo,
     /// Global primitive id (exact up to 2^24); -1 where nothing is hit.
     PrimId,
-    /// BVH nodes visited by the camera ray: the traversal heat map.
+    /// BVH node boxes tested for the camera ray by the renderer's traversal (a packet of a
+    /// row's neighbouring pixels, as rendering traces camera rays): the width of the wide
+    /// tree times the nodes entered, the traversal heat map.
     NodesVisited,
 }
 
@@ -54,29 +59,15 @@ pub fn render_aov(
 ) -> FloatImage {
     let rays = RayGenerator::new(camera, settings.width, settings.height);
     let shading = settings.shading_options();
-    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x, y| {
-        let ray = rays.ray(x, y, Vec2::splat(0.5));
-        let mut stats = TraversalStats::default();
-        let hit = scene.intersect_counted(&ray, &mut stats);
-        let nan = [f32::NAN; 3];
-        let v: [f32; 3] = match (aov, hit) {
-            (Aov::NodesVisited, _) => [stats.nodes_visited as f32, 0.0, 0.0],
-            (Aov::Depth, None) => nan,
-            (Aov::Depth, Some(h)) => [h.t, 0.0, 0.0],
-            (Aov::PrimId, None) => [-1.0, 0.0, 0.0],
-            (Aov::PrimId, Some(h)) => [scene.prim_id(&h) as f32, 0.0, 0.0],
-            (Aov::Position, None) => nan,
-            (Aov::Normal | Aov::Albedo, None) => [0.0; 3],
-            (_, Some(h)) => {
-                let si = scene.surface(&ray, &h, &shading);
-                match aov {
-                    Aov::Position => si.point.to_array(),
-                    Aov::Normal => si.shading_normal.to_array(),
-                    _ => si.kd.to_array(),
-                }
-            }
-        };
-        v
+    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x0, x1, y| {
+        let run: Vec<_> = (x0..x1).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
+        let mut stats = [TraversalStats::default(); PACKET];
+        let hits = scene.intersect_packet_counted(&run, &mut stats);
+        run.iter()
+            .zip(hits)
+            .zip(stats)
+            .map(|((ray, hit), stats)| pixel_value(scene, &shading, aov, ray, hit, &stats))
+            .collect()
     });
     let channels = aov.channels() as usize;
     let mut data = vec![0.0; settings.width as usize * settings.height as usize * channels];
@@ -90,9 +81,41 @@ pub fn render_aov(
     FloatImage { width: settings.width, height: settings.height, channels, data }
 }
 
+/// The value of `aov` for the camera ray `ray` whose closest hit is `hit`, found by a traversal
+/// that `stats` counted.
+fn pixel_value(
+    scene: &Scene,
+    shading: &ShadingOptions,
+    aov: Aov,
+    ray: &Ray,
+    hit: Option<Hit>,
+    stats: &TraversalStats,
+) -> [f32; 3] {
+    let nan = [f32::NAN; 3];
+    match (aov, hit) {
+        (Aov::NodesVisited, _) => [stats.nodes_visited as f32, 0.0, 0.0],
+        (Aov::Depth, None) => nan,
+        (Aov::Depth, Some(h)) => [h.t, 0.0, 0.0],
+        (Aov::PrimId, None) => [-1.0, 0.0, 0.0],
+        (Aov::PrimId, Some(h)) => [scene.prim_id(&h) as f32, 0.0, 0.0],
+        (Aov::Position, None) => nan,
+        (Aov::Normal | Aov::Albedo, None) => [0.0; 3],
+        (_, Some(h)) => {
+            let si = scene.surface(ray, &h, shading);
+            match aov {
+                Aov::Position => si.point.to_array(),
+                Aov::Normal => si.shading_normal.to_array(),
+                _ => si.kd.to_array(),
+            }
+        }
+    }
+}
+
 /// Side of the square tiles the image is cut into: small enough to balance load across
-/// threads, large enough that the rays of a tile stay coherent in cache.
+/// threads, large enough that the rays of a tile stay coherent in cache. A multiple of
+/// [`PACKET`], so that a tile's runs of pixels are the renderer's packets.
 const TILE: u32 = 16;
+const _: () = assert!((TILE as usize).is_multiple_of(PACKET));
 
 #[derive(Clone, Copy)]
 struct Tile {
@@ -118,15 +141,17 @@ fn tiles(width: u32, height: u32) -> Vec<Tile> {
     v
 }
 
-/// Run `f` for every pixel in parallel tiles, skipping tiles not yet started once `cancel` is
-/// set. Returns, per tile, its pixels' results (`None` for skipped tiles). Each result depends
-/// only on its pixel, so the outcome is the same for any number of threads.
+/// Run `f` for every run of pixels in parallel tiles (`f(x0, x1, y)`: pixels `x0..x1` of row
+/// `y`, the renderer's packet of up to [`PACKET`] pixels from a multiple of [`PACKET`]), skipping
+/// tiles not yet started once `cancel` is set. Returns, per tile, its pixels' results in order
+/// (`None` for skipped tiles). Each result depends only on its run, so the outcome is the same
+/// for any number of threads.
 fn per_tile<T: Send>(
     width: u32,
     height: u32,
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
-    f: impl Fn(u32, u32) -> T + Sync,
+    f: impl Fn(u32, u32, u32) -> Vec<T> + Sync,
 ) -> Vec<(Tile, Option<Vec<T>>)> {
     let tiles = tiles(width, height);
     let done = AtomicUsize::new(0);
@@ -137,7 +162,12 @@ fn per_tile<T: Send>(
             if cancel.load(Ordering::Relaxed) {
                 return (t, None);
             }
-            let v: Vec<T> = t.pixels().map(|(x, y)| f(x, y)).collect();
+            let mut v: Vec<T> = Vec::with_capacity(((t.x1 - t.x0) * (t.y1 - t.y0)) as usize);
+            for y in t.y0..t.y1 {
+                for x0 in (t.x0..t.x1).step_by(PACKET) {
+                    v.extend(f(x0, (x0 + PACKET as u32).min(t.x1), y));
+                }
+            }
             let d = done.fetch_add(v.len(), Ordering::Relaxed) + v.len();
             progress(RenderProgress { done: d, total });
             (t, Some(v))

@@ -6,11 +6,13 @@
 //! the factors by which its light reaches the pixel, and a secondary ray whose weight falls
 //! below [`RenderSettings::adc_bailout`] is not cast.
 
+use crate::bvh::{PACKET, TraversalLog};
 use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
 use crate::record::{
-    LightTerm, RayKind, RayRecorder, RecordedHit, ShadowEvent, SkipReason, SkippedLight, StoppedBranch, SurfaceFactors,
+    LightTerm, RayKind, RayRecorder, RecordedHit, RecordedTraversal, ShadowEvent, SkipReason, SkippedLight,
+    StoppedBranch, SurfaceFactors,
 };
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Hit, LightVisibility, Scene, SurfaceInteraction};
@@ -77,7 +79,36 @@ impl<'a> Integrator<'a> {
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
     /// of weight 1 (a camera ray's).
     pub fn li<R: RayRecorder>(&self, ray: &Ray, kind: RayKind, depth: u32, ctx: &mut PathContext<R>) -> Color {
+        if R::RECORDS {
+            return self.observed(ray, kind, depth, Color::ONE, ctx);
+        }
         self.li_hit(ray, self.scene.intersect(ray), kind, depth, ctx)
+    }
+
+    /// The colour arriving along camera ray `rays[lane]`, traced as the renderer traces a
+    /// still camera's rays: in one packet with the camera rays of its neighbours (`rays`, a
+    /// run of pixels of a row, as [`crate::render`] makes them), the recorder told what the
+    /// packet's traversal entered for this ray.
+    pub fn li_in_packet<R: RayRecorder>(&self, rays: &[Ray], lane: usize, ctx: &mut PathContext<R>) -> Color {
+        let mut logs: [TraversalLog; PACKET] = Default::default();
+        let hits = self.scene.intersect_packet_counted(rays, &mut logs);
+        self.trace(&rays[lane], hits[lane], Some(&logs[lane]), RayKind::Camera, 0, Color::ONE, ctx)
+    }
+
+    /// [`Integrator::trace`] for a ray whose closest hit is found here, the recorder told what
+    /// the traversal entered: how a recording integrator casts the rays that the renderer
+    /// traces alone.
+    fn observed<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        kind: RayKind,
+        depth: u32,
+        weight: Color,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
+        let mut log = TraversalLog::default();
+        let hit = self.scene.intersect_counted(ray, &mut log);
+        self.trace(ray, hit, Some(&log), kind, depth, weight, ctx)
     }
 
     /// [`Integrator::li`] for a ray whose closest hit is already known (`hit`, which must be
@@ -90,7 +121,7 @@ impl<'a> Integrator<'a> {
         depth: u32,
         ctx: &mut PathContext<R>,
     ) -> Color {
-        self.trace(ray, hit, kind, depth, Color::ONE, ctx)
+        self.trace(ray, hit, None, kind, depth, Color::ONE, ctx)
     }
 
     /// A secondary ray of `weight`: what [`Integrator::trace`] gives for its closest hit.
@@ -102,19 +133,25 @@ impl<'a> Integrator<'a> {
         weight: Color,
         ctx: &mut PathContext<R>,
     ) -> Color {
-        self.trace(ray, self.scene.intersect(ray), kind, depth, weight, ctx)
+        if R::RECORDS {
+            return self.observed(ray, kind, depth, weight, ctx);
+        }
+        self.trace(ray, self.scene.intersect(ray), None, kind, depth, weight, ctx)
     }
 
     /// The colour arriving along `ray`, whose closest hit is `hit`, for a ray of `weight`: per
     /// colour channel, the product of the factors by which its light reaches the pixel (1 for
-    /// a camera ray; the sample's share of the pixel is not counted, as in POV-Ray).
+    /// a camera ray; the sample's share of the pixel is not counted, as in POV-Ray). `log`,
+    /// when recording, holds what the traversal that found `hit` entered.
     // Inlined into its two callers, as the public entry points were before it took their
     // place: called, it cost the Cornell box 2.5% more instructions.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn trace<R: RayRecorder>(
         &self,
         ray: &Ray,
         hit: Option<Hit>,
+        log: Option<&TraversalLog>,
         kind: RayKind,
         depth: u32,
         weight: Color,
@@ -123,6 +160,9 @@ impl<'a> Integrator<'a> {
         ctx.recorder.begin_ray(kind, depth, ray);
         if R::RECORDS {
             ctx.recorder.weight(weight);
+            if let Some(t) = log.and_then(|log| RecordedTraversal::from_log(self.scene, log).pop()) {
+                ctx.recorder.ray_traversal(t);
+            }
         }
         ctx.counts.primary_and_secondary += 1;
         let color = match hit {
@@ -402,20 +442,23 @@ impl<'a> Integrator<'a> {
         }
         ctx.counts.shadow += 1;
         let ray = vis.shadow_ray(si, ls, time);
-        let t = vis.transmittance(&ray);
-        if R::RECORDS {
-            // Only the debugger wants to know where the blocker is: an extra query, never paid
-            // by normal renders.
-            let blocked_at = if t == Color::ZERO { self.scene.intersect(&ray).map(|h| ray.at(h.t)) } else { None };
-            ctx.recorder.shadow(&ShadowEvent {
-                light,
-                from: ray.origin,
-                to: ls.point,
-                light_color: ls.color,
-                blocked_at,
-                transmitted: t,
-            });
+        if !R::RECORDS {
+            return vis.transmittance(&ray);
         }
+        let mut log = TraversalLog::default();
+        let t = vis.transmittance_observed(&ray, si, &self.scene.lights[light], &mut log);
+        // Only the debugger wants to know where the blocker is: an extra query, never paid
+        // by normal renders.
+        let blocked_at = if t == Color::ZERO { self.scene.intersect(&ray).map(|h| ray.at(h.t)) } else { None };
+        ctx.recorder.shadow(&ShadowEvent {
+            light,
+            from: ray.origin,
+            to: ls.point,
+            light_color: ls.color,
+            blocked_at,
+            transmitted: t,
+        });
+        ctx.recorder.shadow_traversals(RecordedTraversal::from_log(self.scene, &log));
         t
     }
 }

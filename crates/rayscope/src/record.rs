@@ -2,12 +2,16 @@
 //!
 //! The integrator is generic over a [`RayRecorder`]. Normal renders use [`NoRecorder`], whose
 //! methods are empty and inline away, so the debugger traces a pixel with exactly the code the
-//! renderer runs, at no cost to the renderer. [`RayTree`] records what the debugger draws.
+//! renderer runs, at no cost to the renderer. [`RayTree`] records what the debugger draws,
+//! with the nodes and leaves of the wide BVH each ray's own traversal entered
+//! ([`RecordedTraversal`]).
 
 use serde::Serialize;
 
+use crate::bvh::{QueryKind, TraversalLog, WideRef};
 use crate::math::{Color, Vec3A};
-use crate::ray::Ray;
+use crate::ray::{Interval, Ray};
+use crate::scene::Scene;
 
 /// Why a ray was cast.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -88,6 +92,15 @@ pub trait RayRecorder {
     /// [`SkipReason`].
     #[inline(always)]
     fn light_skipped(&mut self, _skip: &SkippedLight) {}
+    /// What the wide BVH's traversal entered to find the current ray's closest hit. Called
+    /// only when [`RayRecorder::RECORDS`], after [`RayRecorder::begin_ray`].
+    #[inline(always)]
+    fn ray_traversal(&mut self, _traversal: RecordedTraversal) {}
+    /// The queries of the wide BVH that answered the shadow ray [`RayRecorder::shadow`] last
+    /// reported (one, or through transparent surfaces one per surface crossed). Called only
+    /// when [`RayRecorder::RECORDS`], right after that `shadow`.
+    #[inline(always)]
+    fn shadow_traversals(&mut self, _traversals: Vec<RecordedTraversal>) {}
 }
 
 /// How a shaded surface weighs what it gathers, as the integrator applies it: its own light
@@ -229,7 +242,7 @@ pub struct NoRecorder;
 impl RayRecorder for NoRecorder {}
 
 /// A shadow ray as recorded.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RecordedShadow {
     /// Index of the light.
     pub light: usize,
@@ -243,6 +256,10 @@ pub struct RecordedShadow {
     pub blocked_at: Option<[f32; 3]>,
     /// Fraction of the light's colour that arrived.
     pub transmitted: [f32; 3],
+    /// How the renderer answered it: the queries of the wide BVH it made, each with what it
+    /// entered (one any-hit query; or one closest-hit query per surface crossed through
+    /// transparent ones; or, for a ray of a group, its group's frustum query).
+    pub traversals: Vec<RecordedTraversal>,
 }
 
 /// One ray of the tree.
@@ -278,6 +295,8 @@ pub struct RecordedRay {
     /// The light points skipped at its hit (behind the surface), in order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub skipped_lights: Vec<SkippedLight>,
+    /// What the renderer's traversal of the wide BVH entered to find its closest hit.
+    pub traversal: Option<RecordedTraversal>,
 }
 
 impl std::fmt::Display for StoppedBranch {
@@ -355,6 +374,9 @@ pub struct RayTree {
     /// The rays being traced, innermost last; `None` for one that is not recorded.
     #[serde(skip)]
     open: Vec<Option<usize>>,
+    /// The last shadow ray reported, as its index in the current ray's shadows, if recorded.
+    #[serde(skip)]
+    last_shadow: Option<usize>,
 }
 
 impl Default for RayTree {
@@ -367,7 +389,7 @@ impl Default for RayTree {
 impl RayTree {
     /// A tree that records at most `limit` rays, shadow rays included.
     pub fn with_limit(limit: usize) -> Self {
-        RayTree { rays: Vec::new(), cut: None, limit, recorded: 0, open: Vec::new() }
+        RayTree { rays: Vec::new(), cut: None, limit, recorded: 0, open: Vec::new(), last_shadow: None }
     }
 
     /// Rays and shadow rays recorded, at most its limit.
@@ -421,6 +443,7 @@ impl RayRecorder for RayTree {
             surface: None,
             light_terms: Vec::new(),
             skipped_lights: Vec::new(),
+            traversal: None,
         });
         self.open.push(Some(self.rays.len() - 1));
     }
@@ -432,6 +455,7 @@ impl RayRecorder for RayTree {
     }
 
     fn shadow(&mut self, s: &ShadowEvent) {
+        self.last_shadow = None;
         // A ray that is not recorded came after the tree filled up, so its shadow rays find no
         // room either.
         if !self.room(true) {
@@ -445,7 +469,23 @@ impl RayRecorder for RayTree {
                 light_color: s.light_color.to_array(),
                 blocked_at: s.blocked_at.map(|p| p.to_array()),
                 transmitted: s.transmitted.to_array(),
+                traversals: Vec::new(),
             });
+            self.last_shadow = Some(r.shadows.len() - 1);
+        }
+    }
+
+    fn ray_traversal(&mut self, traversal: RecordedTraversal) {
+        if let Some(r) = self.current() {
+            r.traversal = Some(traversal);
+        }
+    }
+
+    fn shadow_traversals(&mut self, traversals: Vec<RecordedTraversal>) {
+        if let Some(i) = self.last_shadow
+            && let Some(r) = self.current()
+        {
+            r.shadows[i].traversals = traversals;
         }
     }
 
@@ -483,5 +523,107 @@ impl RayRecorder for RayTree {
         if let Some(r) = self.current() {
             r.skipped_lights.push(*skip);
         }
+    }
+}
+
+/// A box of the wide BVH that a recorded ray's traversal entered.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct VisitedBox {
+    /// The node or leaf (a leaf is named by its parent node and slot), as
+    /// [`Scene::wide_boxes_at_level`] names it.
+    pub at: WideRef,
+    /// Its level in the wide tree (the root is 0).
+    pub level: u32,
+    /// The box's lower corner.
+    pub min: [f32; 3],
+    /// The box's upper corner.
+    pub max: [f32; 3],
+}
+
+/// One query of the wide BVH that rendering traverses, made for a recorded ray, and what it
+/// entered: the renderer's own traversal, observed (see [`crate::bvh::TraversalLog`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RecordedTraversal {
+    /// What the query asked: a closest hit (alone or in a packet of camera rays), whether
+    /// anything blocks a shadow ray, or a group of shadow rays' frustum query.
+    pub query: QueryKind,
+    /// The ray's origin as the traversal got it.
+    pub origin: [f32; 3],
+    /// Its direction.
+    pub dir: [f32; 3],
+    /// The start of its interval.
+    pub t_min: f32,
+    /// The end of its interval (`null` in JSON for an unbounded ray).
+    pub t_max: f32,
+    /// Its shutter time.
+    pub time: f32,
+    /// The nodes and leaves entered, in the order they were entered. A leaf is entered when
+    /// its box is hit and its primitives are tested; an any-hit query stops at the first
+    /// blocker, so it lists only what it entered until then.
+    pub visits: Vec<VisitedBox>,
+}
+
+impl RecordedTraversal {
+    /// The ray as the traversal got it, with its interval and time: what
+    /// [`Scene::visited_nodes`] replays through the binary tree.
+    pub fn ray(&self) -> Ray {
+        Ray {
+            origin: Vec3A::from_array(self.origin),
+            dir: Vec3A::from_array(self.dir),
+            t: Interval { min: self.t_min, max: self.t_max },
+            time: self.time,
+        }
+    }
+
+    /// Wide nodes entered (leaves aside).
+    pub fn nodes(&self) -> usize {
+        self.visits.iter().filter(|v| matches!(v.at, WideRef::Node(_))).count()
+    }
+
+    /// Leaves entered.
+    pub fn leaves(&self) -> usize {
+        self.visits.len() - self.nodes()
+    }
+
+    /// Whether the traversal entered `at`.
+    pub fn entered(&self, at: WideRef) -> bool {
+        self.visits.iter().any(|v| v.at == at)
+    }
+
+    /// The queries `log` saw, with the boxes of what each entered, in `scene`'s wide BVH.
+    pub fn from_log(scene: &Scene, log: &TraversalLog) -> Vec<RecordedTraversal> {
+        log.queries
+            .iter()
+            .map(|q| RecordedTraversal {
+                query: q.kind,
+                origin: q.ray.origin.to_array(),
+                dir: q.ray.dir.to_array(),
+                t_min: q.ray.t.min,
+                t_max: q.ray.t.max,
+                time: q.ray.time,
+                visits: scene
+                    .visited_boxes(q)
+                    .into_iter()
+                    .map(|b| VisitedBox {
+                        at: b.at,
+                        level: b.level,
+                        min: b.bounds.min.to_array(),
+                        max: b.bounds.max.to_array(),
+                    })
+                    .collect(),
+            })
+            .collect()
+    }
+}
+
+impl RayTree {
+    /// Every wide node and leaf that some recorded ray's traversal entered, shadow rays
+    /// included: the viewer's "only nodes the selected ray visited" filter for the wide
+    /// tree's level view ([`Scene::wide_boxes_at_level`]); the binary tree's filter replays
+    /// each recorded ray through it ([`Scene::visited_nodes`] of [`RecordedTraversal::ray`]).
+    pub fn visited_wide(&self) -> std::collections::HashSet<WideRef> {
+        let of_rays = self.rays.iter().filter_map(|r| r.traversal.as_ref());
+        let of_shadows = self.rays.iter().flat_map(|r| r.shadows.iter().flat_map(|s| &s.traversals));
+        of_rays.chain(of_shadows).flat_map(|t| t.visits.iter().map(|v| v.at)).collect()
     }
 }

@@ -209,9 +209,27 @@ impl Pass<'_> {
     fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
         let sampler = self.sampler(x, y, k);
         let ray = self.camera_ray(x, y, &sampler);
+        if R::RECORDS && self.camera.end.is_none() {
+            // A still camera's rays go through the BVH in packets (`sample_run`): the recorder
+            // is told what the packet of this pixel's run entered for its ray.
+            let (rays, lane) = self.camera_run(x, y, k);
+            let mut ctx = PathContext::new(sampler, rec);
+            let c = self.integrator.li_in_packet(&rays, lane, &mut ctx);
+            return (c, ctx.counts);
+        }
         let mut ctx = PathContext::new(sampler, rec);
         let c = self.integrator.li(&ray, RayKind::Camera, 0, &mut ctx);
         (c, ctx.counts)
+    }
+
+    /// The camera rays of sample `k` of the run of pixels [`render_pass`] traces pixel
+    /// `(x, y)` in (the [`PACKET`] pixels of row `y` from a multiple of [`PACKET`], fewer at
+    /// the row's end), and the pixel's place in it.
+    fn camera_run(&self, x: u32, y: u32, k: u32) -> (Vec<Ray>, usize) {
+        let x0 = x - x % PACKET as u32;
+        let x1 = (x0 + PACKET as u32).min(self.integrator.settings.width);
+        let rays = (x0..x1).map(|xi| self.camera_ray(xi, y, &self.sampler(xi, y, k))).collect();
+        (rays, (x - x0) as usize)
     }
 
     /// The sampler of sample `k` of pixel `(x, y)`.

@@ -18,9 +18,12 @@ pub mod wide;
 
 pub use build::BuildParams;
 pub use node::BvhNode;
-pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, TraversalObserver, TraversalStats};
+pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, QueryKind, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
-pub use wide::{Bvh4, Bvh8, Bvh16, ChildRef, Occluders, PACKET, SimdLevel, WideBvh, WideTree};
+pub use wide::{
+    Bvh4, Bvh8, Bvh16, ChildRef, LoggedQuery, Occluders, PACKET, SimdLevel, TraversalLog, WideBox, WideBvh, WideRef,
+    WideTree,
+};
 
 use crate::geometry::PrimHit;
 use crate::ray::Ray;

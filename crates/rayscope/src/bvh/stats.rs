@@ -1,7 +1,10 @@
 //! Tree statistics, per-ray traversal counters, and the boxes of one level for the debugger.
 
-use super::{Bvh, BvhNode};
+use serde::Serialize;
+
+use super::{Bvh, BvhNode, ChildRef};
 use crate::geometry::Aabb;
+use crate::ray::Ray;
 
 /// Counters of one traversal (or a sum of many): what a heat map shows.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -12,8 +15,36 @@ pub struct TraversalStats {
     pub prims_tested: u32,
 }
 
-/// Watches a closest-hit traversal. Every method defaults to nothing.
+/// Which query of the wide tree a traversal answers: what [`TraversalObserver::query`] is
+/// told when one starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum QueryKind {
+    /// The closest hit of one ray ([`crate::bvh::WideBvh::intersect`]).
+    ClosestHit,
+    /// The closest hit of one ray of a packet of camera rays
+    /// ([`crate::bvh::WideBvh::intersect_packet`]): inner nodes are tested once for the whole
+    /// packet, so the ray pays for every node the packet enters; leaves are tested per ray.
+    Packet,
+    /// Whether anything blocks a shadow ray ([`crate::bvh::WideBvh::occluded`]): stops at the
+    /// first blocker found.
+    AnyHit,
+    /// The frustum query of a group of shadow rays from one point to one light
+    /// ([`crate::bvh::WideBvh::occluders`]): the nodes and leaves it opens, whose triangles the
+    /// group's rays then test with no traversal of their own.
+    ShadowGroup,
+}
+
+/// Watches a traversal. Every method defaults to nothing.
 pub trait TraversalObserver {
+    /// Whether the observer watches at all: a traversal skips the bookkeeping it does only for
+    /// an observer (a packet's loop over its rays at each node) when not, so that
+    /// [`NoObserver`] compiles to the traversal without one.
+    const WATCHES: bool = true;
+    /// A query of `kind` for `ray` (its real interval and time) starts; the events that follow
+    /// are its, up to the next query.
+    #[inline(always)]
+    fn query(&mut self, _kind: QueryKind, _ray: &Ray) {}
     /// `n` node boxes were tested against the ray.
     #[inline(always)]
     fn boxes_tested(&mut self, _n: u32) {}
@@ -23,6 +54,11 @@ pub trait TraversalObserver {
     /// The traversal entered node `index` (its box was hit and it was processed).
     #[inline(always)]
     fn entered(&mut self, _index: u32) {}
+    /// A traversal of a wide tree entered leaf `leaf` (its box was hit and its primitives are
+    /// tested, up to the first blocker for an any-hit query). Binary trees report their leaves
+    /// through [`TraversalObserver::entered`], as their other nodes.
+    #[inline(always)]
+    fn entered_leaf(&mut self, _leaf: ChildRef) {}
 }
 
 impl TraversalObserver for TraversalStats {
@@ -40,7 +76,9 @@ impl TraversalObserver for TraversalStats {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoObserver;
 
-impl TraversalObserver for NoObserver {}
+impl TraversalObserver for NoObserver {
+    const WATCHES: bool = false;
+}
 
 /// Records the nodes a traversal entered, in order: what the debugger's "visited nodes" view
 /// draws.

@@ -1,7 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, Motion, PrimRef, SceneSphere};
-use crate::bvh::{BuildParams, Bvh, Occluders, PACKET, Primitives, TraversalObserver, WideTree};
+use crate::bvh::{BuildParams, Bvh, NoObserver, Occluders, PACKET, Primitives, TraversalObserver, WideTree};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -170,6 +170,16 @@ impl Geometry {
         self.wide.intersect_packet(rays, self).map(|h| self.scene_hit(h))
     }
 
+    /// [`Geometry::intersect_packet`], reporting each ray's traversal to its observer in `obs`
+    /// (see [`crate::bvh::WideBvh::intersect_packet_counted`]).
+    pub fn intersect_packet_counted<O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        obs: &mut [O; PACKET],
+    ) -> [Option<Hit>; PACKET] {
+        self.wide.intersect_packet_counted(rays, self, obs).map(|h| self.scene_hit(h))
+    }
+
     /// Closest hit through the binary BVH (for the debugger, whose views show its nodes).
     pub fn intersect_binary<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         let hit = self.bvh.intersect_counted(ray, self, stats);
@@ -178,9 +188,16 @@ impl Geometry {
 
     /// Whether anything blocks `ray` (through the wide BVH). Out of line, as
     /// [`Geometry::intersect`].
-    #[inline(never)]
+    #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.wide.occluded(ray, self)
+        self.occluded_counted(ray, &mut NoObserver)
+    }
+
+    /// [`Geometry::occluded`], reporting the traversal to `obs`. Out of line, as
+    /// [`Geometry::intersect`] (one copy per observer: [`NoObserver`]'s is the renderer's).
+    #[inline(never)]
+    pub fn occluded_counted<O: TraversalObserver>(&self, ray: &Ray, obs: &mut O) -> bool {
+        self.wide.occluded_counted(ray, self, obs)
     }
 
     /// What shadow rays from `apex` (on the side of `side`) into the sphere (`center`,

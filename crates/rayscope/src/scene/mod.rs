@@ -24,9 +24,10 @@ pub use crate::light::{Light, LightSample};
 pub use crate::material::{Material, MaterialDesc, Texture};
 pub use crate::ray::Ray;
 
-use crate::bvh::{BvhStats, NoObserver, NodeLog, TraversalObserver};
+use crate::bvh::{BvhStats, LoggedQuery, NoObserver, NodeLog, TraversalObserver, WideBox, WideRef};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::error::Result;
+use crate::geometry::Aabb;
 use crate::io::file::read_text;
 use crate::math::{Color, Vec2, Vec3A, face_forward};
 use crate::settings::{RenderSettings, ShadingOptions};
@@ -275,8 +276,50 @@ impl Scene {
         self.geometry.intersect(ray, stats)
     }
 
-    /// The binary BVH nodes a closest-hit query for `ray` enters, in traversal order (the
-    /// nodes the debugger's level view draws).
+    /// [`Scene::intersect_packet`], reporting each ray's traversal to its observer in `obs`
+    /// (`obs[i]` for `rays[i]`): the renderer's camera-ray traversal, observed (see
+    /// [`crate::bvh::WideBvh::intersect_packet_counted`]).
+    #[inline]
+    pub fn intersect_packet_counted<O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        obs: &mut [O; crate::bvh::PACKET],
+    ) -> [Option<Hit>; crate::bvh::PACKET] {
+        self.geometry.intersect_packet_counted(rays, obs)
+    }
+
+    /// Levels of the wide BVH that rendering traverses, counting the boxes of its leaves:
+    /// [`Scene::wide_boxes_at_level`] takes `0..wide_levels()`.
+    pub fn wide_levels(&self) -> u32 {
+        self.geometry.wide.box_levels()
+    }
+
+    /// The boxes of level `level` of the wide BVH that rendering traverses: its nodes at that
+    /// level and the leaves at or above it (so every primitive is in a drawn box), each named
+    /// as [`crate::record::RecordedTraversal::visits`] names what a ray entered. The course's
+    /// binary tree's levels stay in [`crate::bvh::Bvh::boxes_at_level`]
+    /// (`scene.geometry.bvh`).
+    pub fn wide_boxes_at_level(&self, level: u32) -> Vec<WideBox> {
+        self.geometry.wide.boxes_at_level(level)
+    }
+
+    /// The box the wide BVH's traversal tests for `at`: a node's, or the leaf's in its parent;
+    /// `None` when the tree has no such node or slot.
+    pub fn wide_box(&self, at: WideRef) -> Option<Aabb> {
+        self.geometry.wide.wide_box(at)
+    }
+
+    /// The boxes of what one logged query of the wide BVH entered (a
+    /// [`crate::bvh::TraversalLog`] observed it), in order, with their levels.
+    pub fn visited_boxes(&self, query: &LoggedQuery) -> Vec<WideBox> {
+        self.geometry.wide.visited_boxes(&query.entered)
+    }
+
+    /// The binary BVH nodes a closest-hit query for `ray` enters, in traversal order: the
+    /// course's tree, which rendering does not traverse (it traverses the wide one, whose
+    /// visits the ray recorder keeps: [`crate::record::RecordedTraversal`]). Pass the
+    /// recorded ray with its interval and time ([`crate::record::RecordedTraversal::ray`]),
+    /// so that the replay stops where the ray does.
     pub fn visited_nodes(&self, ray: &Ray) -> Vec<u32> {
         let mut log = NodeLog::default();
         self.geometry.intersect_binary(ray, &mut log);

@@ -6,7 +6,7 @@
 //! bit, as tracing the ray alone.
 
 use super::{Scene, SurfaceInteraction};
-use crate::bvh::Occluders;
+use crate::bvh::{NoObserver, Occluders, QueryKind, TraversalObserver};
 use crate::light::{Light, LightSample};
 use crate::math::Color;
 use crate::ray::{Interval, Ray};
@@ -56,6 +56,17 @@ impl Scene {
     /// query; `None` where each must be traced alone.
     #[inline]
     fn shadow_group(&self, si: &SurfaceInteraction, light: &Light) -> Option<Occluders> {
+        self.shadow_group_counted(si, light, &mut NoObserver)
+    }
+
+    /// [`Scene::shadow_group`], reporting the group's query to `obs`.
+    #[inline]
+    fn shadow_group_counted<O: TraversalObserver>(
+        &self,
+        si: &SurfaceInteraction,
+        light: &Light,
+        obs: &mut O,
+    ) -> Option<Occluders> {
         if self.has_transparency {
             return None;
         }
@@ -63,7 +74,7 @@ impl Scene {
         // never cast), which is the apex of the group's query.
         let apex = Ray::spawn_origin(si.point, si.geo_normal, si.geo_normal);
         let (center, radius) = light.bounding_sphere();
-        self.geometry.occluders(apex, si.geo_normal, center, radius)
+        self.geometry.wide.occluders_counted(apex, si.geo_normal, center, radius, obs)
     }
 
     /// Whether anything lies on `ray` within its interval.
@@ -76,15 +87,27 @@ impl Scene {
     /// when an opaque surface blocks it; through transparent surfaces, the product of
     /// `kd * (1 - d)` of each surface crossed (coloured shadows, as in the course).
     pub fn transmittance(&self, ray: &Ray, options: &ShadingOptions) -> Color {
+        self.transmittance_counted(ray, options, &mut NoObserver)
+    }
+
+    /// [`Scene::transmittance`], reporting to `obs` each query of the wide BVH it makes: one
+    /// any-hit query, or through transparent surfaces one closest-hit query per surface
+    /// crossed.
+    pub fn transmittance_counted<O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        options: &ShadingOptions,
+        obs: &mut O,
+    ) -> Color {
         if !self.has_transparency {
-            return if self.occluded(ray) { Color::ZERO } else { Color::ONE };
+            return if self.geometry.occluded_counted(ray, obs) { Color::ZERO } else { Color::ONE };
         }
         let mut t = Color::ONE;
         let mut r = *ray;
         // Each surface crossed moves the ray past it; the bound guards against a loop on
         // pathological input (coincident transparent surfaces).
         for _ in 0..64 {
-            let Some(hit) = self.intersect(&r) else {
+            let Some(hit) = self.geometry.intersect(&r, obs) else {
                 return t;
             };
             let mat = &self.materials[self.geometry.slots[hit.slot as usize].material as usize];
@@ -118,6 +141,33 @@ impl LightVisibility<'_> {
     /// transparency then, so all or nothing).
     #[inline(always)]
     pub fn transmittance(&self, ray: &Ray) -> Color {
+        self.transmittance_counted(ray, &mut NoObserver)
+    }
+
+    /// [`LightVisibility::transmittance`] of a shadow ray from `si` to a point of `light` (the
+    /// surface point and light this was made for), reporting to `obs` how it was answered: a
+    /// grouped ray runs no traversal of its own, so `obs` is told a
+    /// [`QueryKind::ShadowGroup`] query with what its group's frustum query entered (that
+    /// query run again with the observer: the same inputs, the same visits); a ray traced
+    /// alone, what [`Scene::transmittance_counted`] tells.
+    #[inline(always)]
+    pub fn transmittance_observed<O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        light: &Light,
+        obs: &mut O,
+    ) -> Color {
+        if O::WATCHES && self.group.is_some() {
+            obs.query(QueryKind::ShadowGroup, ray);
+            self.scene.shadow_group_counted(si, light, obs);
+        }
+        self.transmittance_counted(ray, obs)
+    }
+
+    /// [`LightVisibility::transmittance`], reporting a ray traced alone to `obs`.
+    #[inline(always)]
+    fn transmittance_counted<O: TraversalObserver>(&self, ray: &Ray, obs: &mut O) -> Color {
         match self.group {
             Some(occ) => {
                 if self.scene.geometry.occluded_among(ray, occ) {
@@ -126,7 +176,7 @@ impl LightVisibility<'_> {
                     Color::ONE
                 }
             }
-            None => self.scene.transmittance(ray, self.options),
+            None => self.scene.transmittance_counted(ray, self.options, obs),
         }
     }
 }

@@ -25,7 +25,9 @@
 //! - `traverse.rs`: closest-hit and any-hit traversal, one ray at a time;
 //! - `packet.rs`: closest hits of packets of camera rays that share an origin;
 //! - `shadow.rs`: shadow rays grouped per shading point, answered without a traversal;
-//! - `validate.rs`: the tree's invariants.
+//! - `validate.rs`: the tree's invariants;
+//! - `visits.rs`: what the debugger draws of the tree: the boxes of a level, and the nodes and
+//!   leaves a traversal entered ([`TraversalLog`]) with their boxes.
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
@@ -40,6 +42,7 @@ mod stack;
 mod traverse;
 mod tree;
 mod validate;
+mod visits;
 
 pub use child::ChildRef;
 /// The bound of the wide tree's methods (the widths it is made in: 4, 8 and 16), for code
@@ -51,6 +54,7 @@ pub use packet::{PACKET, PacketHits};
 pub use shadow::{MAX_LEAVES, MAX_TRIANGLES, Occluders};
 pub use simd::SimdLevel;
 pub use tree::{MIN_PRIMS_16, WideTree};
+pub use visits::{LoggedQuery, TraversalLog, WideBox, WideRef};
 
 use simd::Simd;
 

@@ -28,7 +28,7 @@ use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
 use super::traverse::{OneRay, ray_is_finite, sort_far_to_near};
 use super::{ChildRef, Simd, WideBvh};
-use crate::bvh::{BvhHit, NoObserver, Primitives};
+use crate::bvh::{BvhHit, NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -256,7 +256,26 @@ where
     /// bit for bit and have one direction sign per axis, else one by one. For trees of 8 or
     /// 16 children a node.
     pub fn intersect_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
+        self.intersect_packet_counted(rays, prims, &mut [NoObserver; PACKET])
+    }
+
+    /// [`WideBvh::intersect_packet`], reporting each ray's traversal to its observer in `obs`
+    /// (`obs[i]` for `rays[i]`): a ray traced in the packet is told [`QueryKind::Packet`] and
+    /// every inner node the packet enters (the ray is in it: inner nodes are tested for the
+    /// whole packet), and the leaves its own box test lets it into; a ray traced alone (the
+    /// rays do not form a packet) is told what [`WideBvh::intersect_counted`] tells.
+    pub fn intersect_packet_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> PacketHits {
         if rays.is_empty() || self.nodes.is_empty() {
+            if O::WATCHES {
+                for (ray, o) in rays.iter().zip(obs.iter_mut()) {
+                    o.query(QueryKind::Packet, ray);
+                }
+            }
             return [None; PACKET];
         }
         // SAFETY: each `#[target_feature]` variant is called with the token (`cpu`) that proves
@@ -264,10 +283,10 @@ where
         unsafe {
             match self.simd {
                 #[cfg(target_arch = "x86_64")]
-                Simd::Avx512(cpu) => self.packet_avx512(cpu, rays, prims),
+                Simd::Avx512(cpu) => self.packet_avx512(cpu, rays, prims, obs),
                 #[cfg(target_arch = "x86_64")]
-                Simd::Avx2(cpu) => self.packet_avx2(cpu, rays, prims),
-                _ => self.packet_portable(rays, prims),
+                Simd::Avx2(cpu) => self.packet_avx2(cpu, rays, prims, obs),
+                _ => self.packet_portable(rays, prims, obs),
             }
         }
     }
@@ -275,65 +294,91 @@ where
     /// The portable packet traversal, kept out of line (see
     /// [`WideBvh::intersect_counted`]).
     #[inline(never)]
-    fn packet_portable<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
-        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Portable, PortablePacketTest, P>(
-            Baseline, Baseline, rays, prims,
+    fn packet_portable<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> PacketHits {
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Portable, PortablePacketTest, P, O>(
+            Baseline, Baseline, rays, prims, obs,
         )
     }
 
     /// [`WideBvh::intersect_packet`] compiled for AVX2, the packet's set-up included.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn packet_avx2<P: Primitives + ?Sized>(&self, cpu: Avx2, rays: &[Ray], prims: &P) -> PacketHits {
-        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, PortablePacketTest, P>(
+    fn packet_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: Avx2,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> PacketHits {
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, PortablePacketTest, P, O>(
             cpu.into(),
             cpu.into(),
             rays,
             prims,
+            obs,
         )
     }
 
     /// [`WideBvh::intersect_packet`] compiled for AVX-512, the packet's set-up included.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
-    fn packet_avx512<P: Primitives + ?Sized>(&self, cpu: Avx512, rays: &[Ray], prims: &P) -> PacketHits {
-        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx512, <Lanes<W> as PacketWidth<W>>::Avx512, P>(
+    fn packet_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: Avx512,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> PacketHits {
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx512, <Lanes<W> as PacketWidth<W>>::Avx512, P, O>(
             cpu.into(),
             cpu.into(),
             rays,
             prims,
+            obs,
         )
     }
 
     /// The packet's set-up and traversal with leaf test `T` and inner-node test `Q` (on the
     /// CPU `leaf_cpu` and `node_cpu` vouch for); `rays` is not empty.
     #[inline(always)]
-    fn packet_setup<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
+    fn packet_setup<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         leaf_cpu: T::Cpu,
         node_cpu: Q::Cpu,
         rays: &[Ray],
         prims: &P,
+        obs: &mut [O; PACKET],
     ) -> PacketHits {
         let mut hits = [None; PACKET];
         let last = rays.len() - 1;
         // Lanes beyond the packet repeat its last ray.
         let invs: [Vec3A; PACKET] = std::array::from_fn(|lane| safe_inv_dir(rays[lane.min(last)].dir));
         if !packet_compatible(rays, &invs) {
-            for (hit, ray) in hits.iter_mut().zip(rays) {
-                *hit = self.intersect(ray, prims);
+            for ((hit, ray), o) in hits.iter_mut().zip(rays).zip(obs.iter_mut()) {
+                *hit = self.intersect_counted(ray, prims, o);
             }
             return hits;
         }
-        self.packet_with::<T, Q, P>(leaf_cpu, node_cpu, rays, &invs, prims, &mut hits);
+        if O::WATCHES {
+            for (ray, o) in rays.iter().zip(obs.iter_mut()) {
+                o.query(QueryKind::Packet, ray);
+            }
+        }
+        self.packet_with::<T, Q, P, O>(leaf_cpu, node_cpu, rays, &invs, prims, &mut hits, obs);
         hits
     }
 
     /// The packet traversal, with `T` for each ray's leaf tests and `Q` for the inner nodes
     /// (made with `leaf_cpu` and `node_cpu`). `rays` is non-empty and packet-compatible,
     /// `invs` their inverse directions (lanes beyond the packet repeating its last ray).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized>(
+    fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
         &self,
         leaf_cpu: T::Cpu,
         node_cpu: Q::Cpu,
@@ -341,6 +386,7 @@ where
         invs: &[Vec3A; PACKET],
         prims: &P,
         hits: &mut PacketHits,
+        obs: &mut [O; PACKET],
     ) {
         let n = rays.len();
         let ray = |lane: usize| &rays[lane.min(n - 1)];
@@ -420,11 +466,12 @@ where
                     // SAFETY: written above, or earlier as `made` records.
                     let splat = unsafe { singles[lane].assume_init_ref() };
                     let one = OneRay { ray: r, cpu: leaf_cpu, lanes: splat };
-                    self.leaf_closest::<T, P, NoObserver>(
+                    obs[lane].entered_leaf(current.child);
+                    self.leaf_closest::<T, P, O>(
                         current.child,
                         &one,
                         prims,
-                        &mut NoObserver,
+                        &mut obs[lane],
                         &mut t_max[lane],
                         &mut hits[lane],
                     );
@@ -432,6 +479,16 @@ where
                 t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {
                 let node = &self.nodes[current.child.node_index() as usize];
+                if O::WATCHES {
+                    // Every ray of the entry pays for the node's test.
+                    let mut lanes = current.lanes;
+                    while lanes != 0 {
+                        let lane = lanes.trailing_zeros() as usize;
+                        lanes &= lanes - 1;
+                        obs[lane].entered(current.child.node_index());
+                        obs[lane].boxes_tested(W as u32);
+                    }
+                }
                 let (near, mut mask) = nodes.test(&p, node, t_far);
                 let mut order = [Entry { child: ChildRef::EMPTY, lanes: 0, near: 0.0 }; W];
                 let mut k = 0;

@@ -17,7 +17,7 @@ use super::simd::Avx2;
 use super::stack::Stack;
 use super::traverse::ray_is_finite;
 use super::{ChildRef, Simd, WideBvh};
-use crate::bvh::Primitives;
+use crate::bvh::{NoObserver, Primitives, TraversalObserver};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::geometry::{Aabb, Triangle};
 use crate::math::Vec3A;
@@ -174,6 +174,20 @@ where
     /// [`MAX_TRIANGLES`] triangles or [`MAX_LEAVES`] other leaves qualify (then trace with
     /// [`WideBvh::occluded`]).
     pub fn occluders(&self, apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Occluders> {
+        self.occluders_counted(apex, side, center, radius, &mut NoObserver)
+    }
+
+    /// [`WideBvh::occluders`], reporting to `obs` the nodes it enters and the leaves whose
+    /// boxes meet the frustum (the leaves it opens); the caller reports the query's start
+    /// ([`crate::bvh::QueryKind::ShadowGroup`]), for a shadow ray of the group.
+    pub fn occluders_counted<O: TraversalObserver>(
+        &self,
+        apex: Vec3A,
+        side: Vec3A,
+        center: Vec3A,
+        radius: f32,
+        obs: &mut O,
+    ) -> Option<Occluders> {
         if !apex.is_finite() || !side.is_finite() || !center.is_finite() || !radius.is_finite() {
             return None;
         }
@@ -186,6 +200,8 @@ where
         stack.push(ChildRef::ROOT);
         while let Some(index) = stack.pop() {
             let node = &self.nodes[index.node_index() as usize];
+            obs.entered(index.node_index());
+            obs.boxes_tested(W as u32);
             for i in 0..W {
                 let child = node.child[i];
                 if child == ChildRef::EMPTY {
@@ -194,6 +210,9 @@ where
                 let b = node.child_bounds(i);
                 if !frustum.may_meet(b.min, b.max) {
                     continue;
+                }
+                if child.is_leaf() {
+                    obs.entered_leaf(child);
                 }
                 if child.is_packed() {
                     // Keep the triangles that may meet the frustum, lane by lane.

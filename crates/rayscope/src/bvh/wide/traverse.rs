@@ -12,7 +12,7 @@ use super::simd::Baseline;
 use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
 use super::{ChildRef, Simd, WideBvh};
-use crate::bvh::{BvhHit, NoObserver, Primitives, TraversalObserver};
+use crate::bvh::{BvhHit, NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::geometry::PrimHit;
 use crate::geometry::aabb::safe_inv_dir;
 use crate::ray::Ray;
@@ -161,6 +161,7 @@ where
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
+        obs.query(QueryKind::ClosestHit, ray);
         // NaN rays would pass every slab test (SIMD min/max pass NaN through); they hit nothing.
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return None;
@@ -251,6 +252,7 @@ where
         let mut current = ChildRef::ROOT;
         loop {
             if current.is_leaf() {
+                obs.entered_leaf(current);
                 let one = OneRay { ray, cpu, lanes: &lanes };
                 self.leaf_closest::<T, P, O>(current, &one, prims, obs, &mut t_max, &mut best);
             } else {
@@ -354,6 +356,18 @@ where
     /// Whether anything blocks `ray` within its interval; stops at the first hit found.
     #[inline]
     pub fn occluded<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
+        self.occluded_counted(ray, prims, &mut NoObserver)
+    }
+
+    /// [`WideBvh::occluded`], reporting the traversal to `obs`.
+    #[inline]
+    pub fn occluded_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> bool {
+        obs.query(QueryKind::AnyHit, ray);
         if self.nodes.is_empty() || !ray_is_finite(ray) {
             return false;
         }
@@ -362,50 +376,74 @@ where
         unsafe {
             match self.simd {
                 #[cfg(target_arch = "x86_64")]
-                Simd::Avx512(cpu) => self.occluded_avx512(cpu, ray, prims),
+                Simd::Avx512(cpu) => self.occluded_avx512(cpu, ray, prims, obs),
                 #[cfg(target_arch = "x86_64")]
-                Simd::Avx2(cpu) => self.occluded_avx2(cpu, ray, prims),
-                _ => self.occluded_portable(ray, prims),
+                Simd::Avx2(cpu) => self.occluded_avx2(cpu, ray, prims, obs),
+                _ => self.occluded_portable(ray, prims, obs),
             }
         }
     }
 
     /// The portable any-hit traversal, kept out of line (see [`WideBvh::intersect_counted`]).
     #[inline(never)]
-    fn occluded_portable<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
-        self.occluded_with::<PortableTest<W>, P>(Baseline, ray, prims)
+    fn occluded_portable<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> bool {
+        self.occluded_with::<PortableTest<W>, P, O>(Baseline, ray, prims, obs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn occluded_avx2<P: Primitives + ?Sized>(&self, cpu: Avx2, ray: &Ray, prims: &P) -> bool {
-        self.occluded_with::<Avx2Test<W>, P>(cpu.into(), ray, prims)
+    fn occluded_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: Avx2,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> bool {
+        self.occluded_with::<Avx2Test<W>, P, O>(cpu.into(), ray, prims, obs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
-    fn occluded_avx512<P: Primitives + ?Sized>(&self, cpu: Avx512, ray: &Ray, prims: &P) -> bool {
-        self.occluded_with::<Avx512Test<W>, P>(cpu.into(), ray, prims)
+    fn occluded_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: Avx512,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> bool {
+        self.occluded_with::<Avx512Test<W>, P, O>(cpu.into(), ray, prims, obs)
     }
 
     /// The any-hit traversal with node test `T` (on the CPU `cpu` proves), compiled once for
     /// each order of the slab test and chosen per ray.
     #[inline(always)]
-    fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized>(&self, cpu: T::Cpu, ray: &Ray, prims: &P) -> bool {
+    fn occluded_with<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: T::Cpu,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> bool {
         if ray.t.min >= 0.0 {
-            self.any::<T, P, true>(cpu, ray, prims)
+            self.any::<T, P, O, true>(cpu, ray, prims, obs)
         } else {
-            self.any::<T, P, false>(cpu, ray, prims)
+            self.any::<T, P, O, false>(cpu, ray, prims, obs)
         }
     }
 
     /// [`WideBvh::occluded_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
     #[inline(always)]
-    fn any<T: NodeTest<W>, P: Primitives + ?Sized, const FORWARD: bool>(
+    fn any<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
         &self,
         cpu: T::Cpu,
         ray: &Ray,
         prims: &P,
+        obs: &mut O,
     ) -> bool {
         let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir), self.reach);
         let lanes = RayLanes::new(ray);
@@ -414,12 +452,14 @@ where
         let mut current = ChildRef::ROOT;
         loop {
             if current.is_packed() {
+                obs.entered_leaf(current);
                 for (a, b, pair_lanes) in self.block_pairs(current) {
                     if T::intersect_pair(cpu, &lanes, a, b, t_min, t_max).0 & pair_lanes != 0 {
                         return true;
                     }
                 }
             } else if current.is_leaf() {
+                obs.entered_leaf(current);
                 let LeafRange { start, count } = self.ranges[current.range_index()];
                 for slot in start..start + count {
                     if prims.intersect(slot, ray, t_min, t_max).is_some() {
@@ -428,6 +468,8 @@ where
                 }
             } else {
                 let node = &self.nodes[current.node_index() as usize];
+                obs.entered(current.node_index());
+                obs.boxes_tested(W as u32);
                 let (_, mut mask) = boxes.test::<FORWARD>(node, t_min, t_max);
                 if mask != 0 {
                     // Any order finds a blocker; the first hit child is visited next.

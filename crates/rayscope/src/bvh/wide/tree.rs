@@ -6,9 +6,9 @@
 //! camera packets 9% and shadow rays 15% (BENCHMARKS.md, sixth round). Both widths give the
 //! same hits, bit for bit.
 
-use super::packet::PacketHits;
+use super::packet::{PACKET, PacketHits};
 use super::shadow::Occluders;
-use super::{Bvh8, Bvh16, SimdLevel};
+use super::{Bvh8, Bvh16, ChildRef, SimdLevel, WideBox, WideRef};
 use crate::bvh::{Bvh, BvhError, BvhHit, Primitives, TraversalObserver};
 use crate::geometry::Aabb;
 use crate::math::Vec3A;
@@ -126,16 +126,72 @@ impl WideTree {
         each!(self, t => t.intersect_packet(rays, prims))
     }
 
+    /// [`WideTree::intersect_packet`], reporting each ray's traversal to its observer (see
+    /// [`crate::bvh::WideBvh::intersect_packet_counted`]).
+    #[inline]
+    pub fn intersect_packet_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> PacketHits {
+        each!(self, t => t.intersect_packet_counted(rays, prims, obs))
+    }
+
     /// Whether anything blocks `ray` within its interval.
     #[inline]
     pub fn occluded<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
         each!(self, t => t.occluded(ray, prims))
     }
 
+    /// [`WideTree::occluded`], reporting the traversal to `obs`.
+    #[inline]
+    pub fn occluded_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+    ) -> bool {
+        each!(self, t => t.occluded_counted(ray, prims, obs))
+    }
+
     /// What shadow rays from `apex` towards a sphere may cross (see
     /// [`crate::bvh::WideBvh::occluders`]).
     pub fn occluders(&self, apex: Vec3A, side: Vec3A, center: Vec3A, radius: f32) -> Option<Occluders> {
         each!(self, t => t.occluders(apex, side, center, radius))
+    }
+
+    /// [`WideTree::occluders`], reporting the query to `obs` (see
+    /// [`crate::bvh::WideBvh::occluders_counted`]).
+    pub fn occluders_counted<O: TraversalObserver>(
+        &self,
+        apex: Vec3A,
+        side: Vec3A,
+        center: Vec3A,
+        radius: f32,
+        obs: &mut O,
+    ) -> Option<Occluders> {
+        each!(self, t => t.occluders_counted(apex, side, center, radius, obs))
+    }
+
+    /// Levels of boxes, leaves included (see [`crate::bvh::WideBvh::box_levels`]).
+    pub fn box_levels(&self) -> u32 {
+        each!(self, t => t.box_levels())
+    }
+
+    /// The boxes of level `level` (see [`crate::bvh::WideBvh::boxes_at_level`]).
+    pub fn boxes_at_level(&self, level: u32) -> Vec<WideBox> {
+        each!(self, t => t.boxes_at_level(level))
+    }
+
+    /// The boxes of what one query entered (see [`crate::bvh::WideBvh::visited_boxes`]).
+    pub fn visited_boxes(&self, entered: &[ChildRef]) -> Vec<WideBox> {
+        each!(self, t => t.visited_boxes(entered))
+    }
+
+    /// The box of a node or leaf (see [`crate::bvh::WideBvh::wide_box`]).
+    pub fn wide_box(&self, at: WideRef) -> Option<Aabb> {
+        each!(self, t => t.wide_box(at))
     }
 
     /// [`WideTree::occluded`] for a ray of the group `occ` was collected for.
