@@ -19,7 +19,7 @@ use crate::overlay::{ColorBy, LineKind, legend};
 use crate::plural::counted;
 use crate::preview::{Backdrop, LineVertex, OverlayDraw, Preview};
 use crate::session::{NO_DISPLAY_HINT, check_display};
-use crate::state::{Highlight, ModeChoice, OverlayKey, PixelDebug, PixelRect, ViewKind, ViewerState};
+use crate::state::{BvhTree, Highlight, ModeChoice, OverlayKey, PixelDebug, PixelRect, ViewKind, ViewerState};
 use crate::worker::{FrameImage, RenderJob, Worker};
 
 /// The most rays the ray-tree panel lists: each is a widget drawn every frame, and a tree
@@ -523,21 +523,33 @@ impl RayscopeApp {
         egui::CollapsingHeader::new("BVH").default_open(true).show(ui, |ui| {
             let stats = st.scene.bvh_stats();
             ui.label(format!(
-                "binary tree: {}, {}, {}, {:.1} primitives per leaf",
+                "binary tree: {}, {}, {}, {:.1} primitives per leaf; wide tree: {}",
                 counted(stats.nodes as u64, "node", "nodes"),
                 counted(stats.leaves as u64, "leaf", "leaves"),
                 counted(stats.levels as u64, "level", "levels"),
-                stats.mean_leaf_size
+                stats.mean_leaf_size,
+                counted(st.scene.wide_levels() as u64, "level", "levels"),
             ));
+            ui.horizontal(|ui| {
+                ui.label("Tree");
+                ui.radio_value(&mut st.bvh_tree, BvhTree::Wide, "wide (rendered)")
+                    .on_hover_text("The 8- or 16-wide tree the renderer traverses");
+                ui.radio_value(&mut st.bvh_tree, BvhTree::Binary, "binary (course)")
+                    .on_hover_text("The course's binary tree, built first and collapsed into the wide one");
+            });
             let mut on = st.bvh_level.is_some();
             ui.checkbox(&mut on, "Show BVH level")
                 .on_hover_text("Draw the boxes of one level (and the leaves above it)");
             let mut level = st.bvh_level.unwrap_or(0);
-            ui.add_enabled(on, egui::Slider::new(&mut level, 0..=stats.levels.saturating_sub(1) as u32).text("Level"))
+            let levels = st.bvh_levels();
+            ui.add_enabled(on, egui::Slider::new(&mut level, 0..=levels.saturating_sub(1)).text("Level"))
                 .on_hover_text("0 is the root");
-            st.bvh_level = on.then_some(level);
-            ui.checkbox(&mut st.bvh_only_visited, "Only nodes the selected ray visited")
-                .on_hover_text("Of that level, draw only the nodes the camera ray's traversal entered");
+            st.bvh_level = on.then_some(level.min(levels.saturating_sub(1)));
+            ui.checkbox(&mut st.bvh_only_visited, "Only nodes the selected ray visited").on_hover_text(
+                "Of that level, draw only the nodes the selected rays entered: in the wide tree, those the \
+                     renderer's own traversals entered for every ray of the trees (recorded); in the binary tree, \
+                     those a replay of the camera rays enters",
+            );
         });
     }
 

@@ -46,6 +46,15 @@ pub enum ViewKind {
     HeatMap,
 }
 
+/// Which BVH the level view draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhTree {
+    /// The wide tree rendering traverses; "only visited" uses the renderer's recorded visits.
+    Wide,
+    /// The course's binary tree; "only visited" replays the camera rays through it.
+    Binary,
+}
+
 /// The imaging mode as the panel offers it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ModeChoice {
@@ -67,7 +76,8 @@ pub struct PixelDebug {
     pub trace: PixelTrace,
     /// Its value as a sum of terms.
     pub explanation: Explanation,
-    /// BVH nodes the camera rays entered.
+    /// Binary BVH nodes the camera rays entered (a replay; the wide tree's visits, as the
+    /// renderer made them, are in the trees).
     pub visited: Vec<u32>,
 }
 
@@ -156,6 +166,7 @@ impl PixelRect {
 pub struct OverlayKey {
     scene: usize,
     bvh_level: Option<u32>,
+    bvh_tree: BvhTree,
     bvh_only_visited: bool,
     shown: ShownKinds,
     max_depth_shown: u32,
@@ -190,7 +201,9 @@ pub struct ViewerState {
     pub selection: Option<Selection>,
     /// BVH level drawn, if any.
     pub bvh_level: Option<u32>,
-    /// Draw only the BVH nodes the selected camera ray entered.
+    /// The tree whose level is drawn.
+    pub bvh_tree: BvhTree,
+    /// Draw only the BVH nodes the selected rays entered.
     pub bvh_only_visited: bool,
     /// Which kinds of lines are drawn.
     pub shown: ShownKinds,
@@ -229,6 +242,7 @@ impl ViewerState {
             view: ViewKind::Raster,
             selection: None,
             bvh_level: None,
+            bvh_tree: BvhTree::Wide,
             bvh_only_visited: false,
             shown: ShownKinds::default(),
             max_depth_shown: rayscope::settings::MAX_DEPTH,
@@ -289,9 +303,12 @@ impl ViewerState {
         self.trackball = Trackball::from_desc(&self.scene.camera);
     }
 
-    /// Levels of the scene's BVH.
+    /// Levels of the BVH the level view draws.
     pub fn bvh_levels(&self) -> u32 {
-        self.scene.bvh_stats().levels as u32
+        match self.bvh_tree {
+            BvhTree::Wide => self.scene.wide_levels(),
+            BvhTree::Binary => self.scene.bvh_stats().levels as u32,
+        }
     }
 
     /// The camera the ray tracer uses: the trackball's, standing still.
@@ -443,6 +460,7 @@ impl ViewerState {
         OverlayKey {
             scene: Arc::as_ptr(&self.scene) as usize,
             bvh_level: self.bvh_level,
+            bvh_tree: self.bvh_tree,
             bvh_only_visited: self.bvh_only_visited,
             shown: self.shown,
             max_depth_shown: self.max_depth_shown,
@@ -460,15 +478,32 @@ impl ViewerState {
             out.light(light, r, None);
         }
         if let Some(level) = self.bvh_level {
-            let visited: Option<std::collections::HashSet<u32>> = self.bvh_only_visited.then(|| {
-                self.selection.iter().flat_map(|s| &s.pixels).flat_map(|p| p.visited.iter().copied()).collect()
-            });
-            for b in self.scene.geometry.bvh.boxes_at_level(level) {
-                if visited.as_ref().is_some_and(|v| !v.contains(&b.node)) {
-                    continue;
+            let pixels = || self.selection.iter().flat_map(|s| &s.pixels);
+            match self.bvh_tree {
+                BvhTree::Wide => {
+                    // What the renderer's own traversals entered, for every ray of every tree.
+                    let visited: Option<std::collections::HashSet<_>> = self
+                        .bvh_only_visited
+                        .then(|| pixels().flat_map(|p| p.trees()).flat_map(|t| t.visited_wide()).collect());
+                    for b in self.scene.wide_boxes_at_level(level) {
+                        if visited.as_ref().is_some_and(|v| !v.contains(&b.at)) {
+                            continue;
+                        }
+                        let color = if b.is_leaf() { LEAF_COLOR } else { BOX_COLOR };
+                        out.aabb(b.bounds.min.into(), b.bounds.max.into(), color);
+                    }
                 }
-                let color = if b.is_leaf { LEAF_COLOR } else { BOX_COLOR };
-                out.aabb(b.bounds.min.into(), b.bounds.max.into(), color);
+                BvhTree::Binary => {
+                    let visited: Option<std::collections::HashSet<u32>> =
+                        self.bvh_only_visited.then(|| pixels().flat_map(|p| p.visited.iter().copied()).collect());
+                    for b in self.scene.geometry.bvh.boxes_at_level(level) {
+                        if visited.as_ref().is_some_and(|v| !v.contains(&b.node)) {
+                            continue;
+                        }
+                        let color = if b.is_leaf { LEAF_COLOR } else { BOX_COLOR };
+                        out.aabb(b.bounds.min.into(), b.bounds.max.into(), color);
+                    }
+                }
             }
         }
         for p in self.selection.iter().flat_map(|s| &s.pixels) {
@@ -648,14 +683,35 @@ mod tests {
 
     #[test]
     fn bvh_levels_and_visited_filter() {
+        let boxes = |s: &ViewerState| {
+            s.overlay_lines().iter().filter(|v| v.color == BOX_COLOR || v.color == LEAF_COLOR).count() / 24
+        };
+        // The binary tree: a replay of the camera ray.
         let mut s = state();
+        s.bvh_tree = BvhTree::Binary;
         s.bvh_level = Some(2);
-        let all = s.overlay_lines().iter().filter(|v| v.color == BOX_COLOR || v.color == LEAF_COLOR).count();
-        assert!(all >= 24);
+        let all = boxes(&s);
+        assert!(all >= 1);
         s.select_pixel(400, 400);
         s.bvh_only_visited = true;
-        let visited = s.overlay_lines().iter().filter(|v| v.color == BOX_COLOR || v.color == LEAF_COLOR).count();
-        assert!(visited <= all);
+        assert!(boxes(&s) <= all);
+        // The wide tree: the boxes the renderer's traversals entered, for every ray of the tree.
+        s.bvh_tree = BvhTree::Wide;
+        s.bvh_only_visited = false;
+        for level in 0..s.bvh_levels() {
+            s.bvh_level = Some(level);
+            let all = s.scene.wide_boxes_at_level(level);
+            assert_eq!(boxes(&s), all.len(), "level {level}");
+            s.bvh_only_visited = true;
+            let tree = &s.selection.as_ref().unwrap().first().trace.samples[0].tree;
+            let entered = tree.visited_wide();
+            assert_eq!(boxes(&s), all.iter().filter(|b| entered.contains(&b.at)).count(), "level {level}");
+            s.bvh_only_visited = false;
+        }
+        assert!(s.bvh_levels() >= 2, "a root and its leaves");
+        let key = s.overlay_key();
+        s.bvh_tree = BvhTree::Binary;
+        assert_ne!(s.overlay_key(), key);
     }
 
     #[test]
@@ -746,7 +802,7 @@ mod tests {
         let blocked = grid.into_iter().find_map(|(x, y)| {
             s.select_pixel(x, y);
             let t = &s.selection.as_ref().unwrap().first().trace.samples[0].tree;
-            t.rays.iter().flat_map(|r| &r.shadows).find(|sh| sh.blocked_at.is_some()).copied()
+            t.rays.iter().flat_map(|r| &r.shadows).find(|sh| sh.blocked_at.is_some()).cloned()
         });
         let sh = blocked.expect("some pixel is in shadow");
         let lines = s.overlay_lines();
