@@ -101,6 +101,19 @@ struct ViewArgs {
     /// Debug this pixel (X,Y from the top-left) from the start.
     #[arg(long, value_parser = parse_pixel, value_name = "X,Y")]
     debug_pixel: Option<(u32, u32)>,
+    /// Debug a rectangle of pixels from the start, corners X0,Y0 and X1,Y1 included (up to 64
+    /// pixels: a larger one is cut from its top-left corner).
+    #[arg(long, value_parser = parse_rect, value_name = "X0,Y0,X1,Y1")]
+    debug_rect: Option<[(u32, u32); 2]>,
+    /// Which samples of the debugged pixels to trace: `all` (the default) or one index.
+    #[arg(long, value_parser = parse_samples, value_name = "all|K")]
+    samples: Option<SampleChoice>,
+    /// Highlight row N (from 0) of the debugged pixel's explanation table in 3D.
+    #[arg(long, value_name = "N")]
+    explain_row: Option<usize>,
+    /// Width of the debugger's overlay lines, in points.
+    #[arg(long, value_name = "W", value_parser = parse_line_width)]
+    line_width: Option<f32>,
     /// Show this BVH level from the start.
     #[arg(long, value_name = "L")]
     bvh_level: Option<u32>,
@@ -316,6 +329,21 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
     let (x, y) = s.split_once(',').ok_or("expected X,Y")?;
     let p = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("'{v}' is not a pixel coordinate"));
     Ok((p(x)?, p(y)?))
+}
+
+/// Two corner pixels, `X0,Y0,X1,Y1`.
+fn parse_rect(s: &str) -> Result<[(u32, u32); 2], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let [x0, y0, x1, y1] = parts[..] else { return Err("expected X0,Y0,X1,Y1".into()) };
+    Ok([parse_pixel(&format!("{x0},{y0}"))?, parse_pixel(&format!("{x1},{y1}"))?])
+}
+
+fn parse_line_width(s: &str) -> Result<f32, String> {
+    s.trim()
+        .parse::<f32>()
+        .ok()
+        .filter(|w| (0.5..=32.0).contains(w))
+        .ok_or(format!("'{s}' is not a line width (0.5 to 32 points)"))
 }
 
 /// The exit status of a render that Ctrl-C stopped (after writing the image it had): the
@@ -597,6 +625,10 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         settings: Some(settings),
         view: Some(view),
         debug_pixel: args.debug_pixel,
+        debug_rect: args.debug_rect.map(|[a, b]| rayscope_viewer::state::PixelRect::spanning(a, b)),
+        line_width: args.line_width,
+        samples: args.samples,
+        explain_row: args.explain_row,
         bvh_level: args.bvh_level,
         orbit: args.orbit,
         bvh_only_visited: args.bvh_visited,

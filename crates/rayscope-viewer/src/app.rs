@@ -7,16 +7,19 @@ use std::time::Instant;
 
 use egui::{Color32, Key, PointerButton, Pos2, Rect, Sense, Stroke, Vec2};
 use rayscope::camera::CameraMotion;
+use rayscope::debug::SampleChoice;
 use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, write_image};
+use rayscope::record::RayTree;
 use rayscope::scene::builtin;
 use rayscope::settings::{MAX_DEPTH, PixelFilter, RenderSettings, TextureFilter};
 
 use crate::files::{BrowserAction, FileBrowser};
+use crate::overlay::{ColorBy, LineKind, legend};
 use crate::plural::counted;
-use crate::preview::{LineVertex, Preview};
+use crate::preview::{Backdrop, LineVertex, OverlayDraw, Preview};
 use crate::session::{NO_DISPLAY_HINT, check_display};
-use crate::state::{ModeChoice, OverlayKey, ViewKind, ViewerState};
+use crate::state::{BvhTree, Highlight, ModeChoice, OverlayKey, PixelDebug, PixelRect, ViewKind, ViewerState};
 use crate::worker::{FrameImage, RenderJob, Worker};
 
 /// The most rays the ray-tree panel lists: each is a widget drawn every frame, and a tree
@@ -36,6 +39,14 @@ pub struct ViewerOptions {
     pub view: Option<ViewKind>,
     /// Debug this pixel from the start.
     pub debug_pixel: Option<(u32, u32)>,
+    /// Debug this rectangle of pixels from the start (up to 64 of them; after `debug_pixel`).
+    pub debug_rect: Option<PixelRect>,
+    /// Overlay line width in points (default [`crate::state::DEFAULT_LINE_WIDTH`]).
+    pub line_width: Option<f32>,
+    /// Which samples of the debugged pixels to trace (default all).
+    pub samples: Option<SampleChoice>,
+    /// Highlight this row (from 0) of the first debugged pixel's explanation table.
+    pub explain_row: Option<usize>,
     /// Show this BVH level from the start.
     pub bvh_level: Option<u32>,
     /// Draw only the BVH nodes the debug pixel's camera ray entered.
@@ -110,6 +121,8 @@ pub struct RayscopeApp {
     /// (so that the preview uploads them again only then).
     overlay: Option<(OverlayKey, u64, Vec<LineVertex>)>,
     last_watch: Option<Instant>,
+    /// Where a rectangle-selecting drag started (screen position).
+    rect_drag: Option<Pos2>,
 }
 
 impl RayscopeApp {
@@ -123,6 +136,9 @@ impl RayscopeApp {
         if let Some(path) = &opts.compare {
             state.load_compare(path);
         }
+        if let Some(s) = opts.samples {
+            state.samples = s;
+        }
         if let Some(v) = opts.view {
             state.view = v;
         }
@@ -131,6 +147,15 @@ impl RayscopeApp {
         if let Some((x, y)) = opts.debug_pixel {
             let (x, y) = (x.min(state.settings.width - 1), y.min(state.settings.height - 1));
             state.select_pixel(x, y);
+        }
+        if let Some(r) = opts.debug_rect {
+            state.select_rect(r);
+        }
+        if let Some(w) = opts.line_width {
+            state.line_width = w;
+        }
+        if let Some(row) = opts.explain_row {
+            state.highlight_term(row);
         }
         if let Some((dx, dy)) = opts.orbit {
             state.trackball.rotation.x = (state.trackball.rotation.x + dx).clamp(-89.0, 89.0);
@@ -162,6 +187,7 @@ impl RayscopeApp {
             watched: None,
             overlay: None,
             last_watch: None,
+            rect_drag: None,
         }
     }
 
@@ -369,7 +395,10 @@ impl RayscopeApp {
                 "rotation ({:.0}, {:.0}, {:.0}), distance {:.2}",
                 t.rotation.x, t.rotation.y, t.rotation.z, t.distance
             ));
-            ui.label("Drag: orbit · right/shift-drag: pan · wheel: zoom · click: debug a pixel");
+            ui.label(
+                "Drag: orbit · right/shift-drag: pan · wheel: zoom · click: debug a pixel · Ctrl-drag (or the \
+                 rectangle tool): debug a rectangle of pixels",
+            );
             if ui.button("Reset camera").on_hover_text("Back to the scene's camera").clicked() {
                 st.reset_camera();
             }
@@ -395,93 +424,179 @@ impl RayscopeApp {
         let st = &mut self.state;
         egui::CollapsingHeader::new("Selected pixel").default_open(true).show(ui, |ui| match &st.selection {
             None => {
-                ui.label("Click the image to trace a pixel.");
+                ui.label("Click the image to trace a pixel; Ctrl-drag to trace a rectangle of pixels.");
             }
             Some(sel) => {
-                ui.horizontal(|ui| {
-                    ui.label(format!("pixel ({}, {})", sel.pixel.0, sel.pixel.1));
-                    let c = sel.color.clamp(glam::Vec3::ZERO, glam::Vec3::ONE) * 255.0;
-                    let (r, _) = ui.allocate_exact_size(Vec2::splat(14.0), Sense::hover());
-                    ui.painter().rect_filled(r, 2.0, Color32::from_rgb(c.x as u8, c.y as u8, c.z as u8));
-                    ui.label(format!("({:.3}, {:.3}, {:.3})", sel.color.x, sel.color.y, sel.color.z));
-                });
+                if sel.pixels.len() > 1 {
+                    let (a, b) = (sel.first().pixel, sel.pixels.last().expect("not empty").pixel);
+                    ui.label(format!(
+                        "{} from ({}, {}) to ({}, {}), drawn together",
+                        counted(sel.pixels.len() as u64, "pixel", "pixels"),
+                        a.0,
+                        a.1,
+                        b.0,
+                        b.1
+                    ));
+                }
+                if let Some(note) = &sel.clamped {
+                    ui.colored_label(ui.visuals().warn_fg_color, note);
+                }
+                for p in sel.pixels.iter().take(4) {
+                    pixel_swatch(ui, p);
+                }
+                if sel.pixels.len() > 4 {
+                    ui.label(format!("… and {} more", sel.pixels.len() - 4));
+                }
             }
         });
         if let Some(c) = &st.compare
-            && c.panel(ui, st.selection.as_ref().map(|s| s.pixel), &st.settings)
+            && c.panel(ui, st.selection.as_ref().map(|s| s.first().pixel), &st.settings)
         {
             st.recompare();
         }
         let mut clear = false;
         if let Some(sel) = &st.selection {
-            egui::CollapsingHeader::new(format!("Ray tree ({})", counted(sel.tree.rays.len() as u64, "ray", "rays")))
-                .default_open(true)
-                .show(ui, |ui| {
-                    if let Some(cut) = &sel.tree.cut {
-                        ui.colored_label(ui.visuals().warn_fg_color, format!("Tree cut: {cut}"));
-                    }
-                    for (i, r) in sel.tree.rays.iter().enumerate().take(LISTED_RAYS) {
-                        let title = format!("#{i} {:?} · depth {}", r.kind, r.depth);
-                        egui::CollapsingHeader::new(title).id_salt(("ray", i)).default_open(i < 4).show(ui, |ui| {
-                            match &r.hit {
-                                None => {
-                                    ui.label("missed");
-                                }
-                                Some(h) => {
-                                    let mat = &st.scene.materials[h.material as usize];
-                                    ui.label(format!("hit at t = {:.4}", h.t));
-                                    ui.label(format!("primitive {} · material '{}'", h.prim, mat.name));
-                                }
-                            }
-                            ui.label(format!("colour ({:.3}, {:.3}, {:.3})", r.color[0], r.color[1], r.color[2]));
-                            let reached = r.shadows.iter().filter(|s| s.blocked_at.is_none()).count();
-                            if !r.shadows.is_empty() {
-                                let rays = counted(r.shadows.len() as u64, "shadow ray", "shadow rays");
-                                ui.label(format!("{rays}: {reached} reached, {} blocked", r.shadows.len() - reached));
-                            }
-                            for stopped in &r.stopped {
-                                ui.label(format!("adaptive depth control: {stopped}"));
-                            }
-                        });
-                    }
-                    if let Some(more) = sel.tree.rays.len().checked_sub(LISTED_RAYS).filter(|&n| n > 0) {
-                        ui.label(format!(
-                            "… and {} more, not listed here (`rayscope debug` prints them all)",
-                            counted(more as u64, "ray", "rays")
-                        ));
-                    }
-                    if ui.button("Clear selection").on_hover_text("Stop debugging this pixel").clicked() {
-                        clear = true;
-                    }
-                });
+            let mut listed = 0;
+            let several = sel.pixels.len() > 1;
+            for (n, p) in sel.pixels.iter().enumerate() {
+                for (k, sample) in p.trace.samples.iter().enumerate() {
+                    let rays = counted(sample.tree.rays.len() as u64, "ray", "rays");
+                    let of_pixel = if several { format!(" of ({}, {})", p.pixel.0, p.pixel.1) } else { String::new() };
+                    let of_sample =
+                        if p.trace.samples.len() > 1 { format!(" sample {}", sample.index) } else { String::new() };
+                    let title = format!("Ray tree{of_pixel}{of_sample} ({rays})");
+                    egui::CollapsingHeader::new(title).id_salt(("tree", n, k)).default_open(n == 0 && k == 0).show(
+                        ui,
+                        |ui| {
+                            ray_list(ui, st, &sample.tree, (p.pixel, sample.index), &mut listed);
+                        },
+                    );
+                }
+            }
+            if ui.button("Clear selection").on_hover_text("Stop debugging these pixels").clicked() {
+                clear = true;
+            }
         }
         if clear {
             st.selection = None;
         }
+        egui::CollapsingHeader::new("Samples").default_open(true).show(ui, |ui| {
+            let spp = st.settings.spp.max(1);
+            let mut choice = st.samples;
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut choice, SampleChoice::All, "All samples").on_hover_text(
+                    "Trace every sample of the pixel with the current settings (anti-aliasing, light and gloss \
+                     samples, lens, shutter time): their mean is the rendered pixel",
+                );
+                let one = matches!(choice, SampleChoice::One(_));
+                if ui.radio(one, "One sample").on_hover_text("Trace one sample, chosen by its index").clicked() && !one
+                {
+                    choice = SampleChoice::One(0);
+                }
+            });
+            if let SampleChoice::One(k) = &mut choice {
+                ui.add(egui::Slider::new(k, 0..=spp - 1).text("Sample index")).on_hover_text(
+                    "Which sample (0 to anti-aliasing rays - 1); it selects the sample's random numbers",
+                );
+            }
+            st.set_samples(choice);
+        });
+        if st.selection.is_some() {
+            egui::CollapsingHeader::new("Explanation").default_open(true).show(ui, |ui| explanation_table(ui, st));
+        }
+        egui::CollapsingHeader::new("Overlay").default_open(true).show(ui, |ui| {
+            for kind in LineKind::ALL {
+                let mut on = st.shown.contains(kind);
+                if ui.checkbox(&mut on, kind.label()).on_hover_text(kind.tooltip()).changed() {
+                    st.shown.set(kind, on);
+                }
+            }
+            ui.add(egui::Slider::new(&mut st.max_depth_shown, 0..=MAX_DEPTH).text("Max depth shown"))
+                .on_hover_text("Draw rays up to this recursion depth (0: camera rays only), with their shadow rays");
+            ui.add(egui::Slider::new(&mut st.line_width, 1.0..=8.0).text("Line width"))
+                .on_hover_text("Width of the overlay's lines, in points");
+            ui.horizontal(|ui| {
+                ui.label("Colour rays by");
+                ui.radio_value(&mut st.color_by, ColorBy::Depth, "depth")
+                    .on_hover_text("The camera ray white, then warmer colours per bounce (as the course does)");
+                ui.radio_value(&mut st.color_by, ColorBy::Kind, "kind")
+                    .on_hover_text("Camera, reflection, glossy and transmission rays each in their own colour");
+            });
+            ui.checkbox(&mut st.rect_tool, "Select rectangle by dragging").on_hover_text(
+                "A drag selects a rectangle of pixels (up to 64) instead of orbiting; Ctrl-drag does so always",
+            );
+            ui.label("Lines are solid in front of the scene's surfaces and faded where a surface hides them.");
+            egui::CollapsingHeader::new("Legend").default_open(false).show(ui, |ui| {
+                for e in legend(st.color_by) {
+                    ui.horizontal(|ui| {
+                        let (r, _) = ui.allocate_exact_size(Vec2::new(22.0, 10.0), Sense::hover());
+                        let [cr, cg, cb, ca] = e.color.map(|c| (c * 255.0) as u8);
+                        ui.painter().rect_filled(r, 1.0, Color32::from_rgba_unmultiplied(cr, cg, cb, ca));
+                        ui.label(&e.meaning);
+                    });
+                }
+            });
+        });
         egui::CollapsingHeader::new("BVH").default_open(true).show(ui, |ui| {
             let stats = st.scene.bvh_stats();
             ui.label(format!(
-                "binary tree: {}, {}, {}, {:.1} primitives per leaf",
+                "binary tree: {}, {}, {}, {:.1} primitives per leaf; wide tree: {}",
                 counted(stats.nodes as u64, "node", "nodes"),
                 counted(stats.leaves as u64, "leaf", "leaves"),
                 counted(stats.levels as u64, "level", "levels"),
-                stats.mean_leaf_size
+                stats.mean_leaf_size,
+                counted(st.scene.wide_levels() as u64, "level", "levels"),
             ));
+            ui.horizontal(|ui| {
+                ui.label("Tree");
+                ui.radio_value(&mut st.bvh_tree, BvhTree::Wide, "wide (rendered)")
+                    .on_hover_text("The 8- or 16-wide tree the renderer traverses");
+                ui.radio_value(&mut st.bvh_tree, BvhTree::Binary, "binary (course)")
+                    .on_hover_text("The course's binary tree, built first and collapsed into the wide one");
+            });
             let mut on = st.bvh_level.is_some();
             ui.checkbox(&mut on, "Show BVH level")
                 .on_hover_text("Draw the boxes of one level (and the leaves above it)");
             let mut level = st.bvh_level.unwrap_or(0);
-            ui.add_enabled(on, egui::Slider::new(&mut level, 0..=stats.levels.saturating_sub(1) as u32).text("Level"))
+            let levels = st.bvh_levels();
+            ui.add_enabled(on, egui::Slider::new(&mut level, 0..=levels.saturating_sub(1)).text("Level"))
                 .on_hover_text("0 is the root");
-            st.bvh_level = on.then_some(level);
-            ui.checkbox(&mut st.bvh_only_visited, "Only nodes the selected ray visited")
-                .on_hover_text("Of that level, draw only the nodes the camera ray's traversal entered");
+            st.bvh_level = on.then_some(level.min(levels.saturating_sub(1)));
+            ui.checkbox(&mut st.bvh_only_visited, "Only nodes the selected ray visited").on_hover_text(
+                "Of that level, draw only the nodes the selected rays entered: in the wide tree, those the \
+                     renderer's own traversals entered for every ray of the trees (recorded); in the binary tree, \
+                     those a replay of the camera rays enters",
+            );
         });
-        egui::CollapsingHeader::new("Light samples").default_open(true).show(ui, |ui| {
-            ui.checkbox(&mut st.show_light_samples, "Show light samples")
-                .on_hover_text("Mark each sampled light point: green reached, red blocked");
-            ui.label("Raise 'Rays per light' to see the samples spread over the light.");
-        });
+    }
+
+    /// The preview's texture for `rect`: the scene with the overlay (the raster view) or the
+    /// overlay alone on a transparent background, over the scene's depth (the other views).
+    /// `None` without a GPU renderer.
+    fn preview_texture(
+        &mut self,
+        ui: &egui::Ui,
+        frame: &eframe::Frame,
+        rect: Rect,
+        backdrop: Backdrop,
+    ) -> Option<egui::TextureId> {
+        let (preview, rs) = match (&mut self.preview, frame.wgpu_render_state()) {
+            (Some(p), Some(rs)) => (p, rs),
+            _ => return None,
+        };
+        let ppp = ui.ctx().pixels_per_point();
+        let size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
+        // The lines are made again only when what they show changes, not per frame.
+        let overlay = self.state.overlay_key();
+        if self.overlay.as_ref().is_none_or(|(k, ..)| *k != overlay) {
+            let version = self.overlay.as_ref().map_or(0, |(_, v, _)| v + 1);
+            self.overlay = Some((overlay, version, self.state.overlay_lines()));
+        }
+        let (_, version, lines) = self.overlay.as_ref().expect("made above");
+        let key = Arc::as_ptr(&self.state.scene) as usize;
+        let camera = self.state.trackball.camera();
+        let draw = OverlayDraw { lines, version: *version, width_px: self.state.line_width * ppp, backdrop };
+        Some(preview.render(rs, &self.state.scene, key, &camera, size, draw))
     }
 
     fn viewport(&mut self, ui: &mut egui::Ui, frame: &eframe::Frame) {
@@ -491,68 +606,69 @@ impl RayscopeApp {
         self.image_rect = Some(rect);
         let painter = ui.painter_at(area);
         let uv = Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0));
+        let note = |text: &str| {
+            painter.text(rect.center(), egui::Align2::CENTER_CENTER, text, Default::default(), Color32::GRAY)
+        };
         match self.state.view {
-            ViewKind::Raster => match (&mut self.preview, frame.wgpu_render_state()) {
-                (Some(preview), Some(rs)) => {
-                    let ppp = ui.ctx().pixels_per_point();
-                    let size = [(rect.width() * ppp).round() as u32, (rect.height() * ppp).round() as u32];
-                    let overlay = self.state.overlay_key();
-                    if self.overlay.as_ref().is_none_or(|(k, ..)| *k != overlay) {
-                        let version = self.overlay.as_ref().map_or(0, |(_, v, _)| v + 1);
-                        self.overlay = Some((overlay, version, self.state.overlay_lines()));
-                    }
-                    let (_, version, lines) = self.overlay.as_ref().expect("made above");
-                    let key = Arc::as_ptr(&self.state.scene) as usize;
-                    let camera = self.state.trackball.camera();
-                    let id = preview.render(rs, &self.state.scene, key, &camera, size, (lines, *version));
+            ViewKind::Raster => match self.preview_texture(ui, frame, rect, Backdrop::Scene) {
+                Some(id) => {
                     painter.image(id, rect, uv, Color32::WHITE);
                 }
-                _ => {
-                    painter.text(
-                        rect.center(),
-                        egui::Align2::CENTER_CENTER,
-                        "no GPU renderer",
-                        Default::default(),
-                        Color32::GRAY,
-                    );
+                None => {
+                    note("no GPU renderer");
                 }
             },
             view => {
                 painter.rect_filled(rect, 0.0, Color32::BLACK);
                 let compared = self.state.compare.as_mut().and_then(|c| c.texture(ui.ctx(), view));
-                if let Some(id) = compared.or(self.traced.as_ref().map(|t| t.id())) {
+                match compared.or(self.traced.as_ref().map(|t| t.id())) {
+                    Some(id) => {
+                        painter.image(id, rect, uv, Color32::WHITE);
+                    }
+                    None => {
+                        note("rendering…");
+                    }
+                }
+                // The same lines over the image: the ray tracer looks through the preview's
+                // camera, so they project onto the pixels they explain.
+                if let Some(id) = self.preview_texture(ui, frame, rect, Backdrop::DepthOnly) {
                     painter.image(id, rect, uv, Color32::WHITE);
                 } else {
-                    painter.text(
-                        rect.center(),
-                        egui::Align2::CENTER_CENTER,
-                        "rendering…",
-                        Default::default(),
-                        Color32::GRAY,
-                    );
-                }
-                if let Some(sel) = &self.state.selection {
-                    let (x, y) = sel.pixel;
-                    let p = Pos2::new(
-                        rect.min.x + (x as f32 + 0.5) / self.state.settings.width as f32 * rect.width(),
-                        rect.min.y + (y as f32 + 0.5) / self.state.settings.height as f32 * rect.height(),
-                    );
-                    let s = Stroke::new(1.5, Color32::from_rgb(255, 220, 0));
-                    painter.circle_stroke(p, 6.0, s);
-                    painter.line_segment([p - Vec2::X * 10.0, p + Vec2::X * 10.0], s);
-                    painter.line_segment([p - Vec2::Y * 10.0, p + Vec2::Y * 10.0], s);
+                    let corner = rect.left_top() + Vec2::splat(8.0);
+                    let text = "no GPU renderer: the overlay needs it";
+                    painter.text(corner, egui::Align2::LEFT_TOP, text, Default::default(), Color32::GRAY);
                 }
             }
         }
-        // Mouse: click debugs a pixel; drag orbits; right or shift drag pans; wheel zooms.
-        let shift = ui.input(|i| i.modifiers.shift);
+        self.mark_selection(&painter, rect);
+        // Mouse: click debugs a pixel; Ctrl-drag (or any drag with the rectangle tool) selects
+        // a rectangle; drag orbits; right or shift drag pans; wheel zooms.
+        let (shift, ctrl) = ui.input(|i| (i.modifiers.shift, i.modifiers.command || i.modifiers.ctrl));
         if response.clicked()
             && let Some(p) = response.interact_pointer_pos().and_then(|pos| self.state.pixel_at(pos, rect))
         {
             self.state.click_pixel(p.0, p.1);
         }
+        if response.drag_started_by(PointerButton::Primary) && (ctrl || self.state.rect_tool) {
+            self.rect_drag = ui.input(|i| i.pointer.press_origin()).filter(|p| rect.contains(*p));
+        }
         let delta = response.drag_delta();
-        if response.dragged_by(PointerButton::Secondary) || (response.dragged_by(PointerButton::Primary) && shift) {
+        if let Some(from) = self.rect_drag {
+            let to = response.interact_pointer_pos().unwrap_or(from);
+            let pen = Stroke::new(1.5, Color32::from_rgb(255, 220, 0));
+            painter.rect_stroke(Rect::from_two_pos(from, to), 0.0, pen, egui::StrokeKind::Middle);
+            if response.drag_stopped() {
+                self.rect_drag = None;
+                let clamp = |p: Pos2| rect.clamp(p);
+                let a = self.state.pixel_at(clamp(from), rect);
+                let b = self.state.pixel_at(clamp(to), rect);
+                if let (Some(a), Some(b)) = (a, b) {
+                    self.state.select_rect(PixelRect::spanning(a, b));
+                }
+            }
+        } else if response.dragged_by(PointerButton::Secondary)
+            || (response.dragged_by(PointerButton::Primary) && shift)
+        {
             self.state.trackball.pan(delta.x, delta.y, rect.height());
         } else if response.dragged_by(PointerButton::Primary) {
             self.state.trackball.orbit(delta.x, delta.y);
@@ -562,6 +678,26 @@ impl RayscopeApp {
             if scroll != 0.0 {
                 self.state.trackball.zoom(scroll);
             }
+        }
+    }
+
+    /// In the image views, mark the selected pixel (a crosshair) or rectangle (its outline).
+    fn mark_selection(&self, painter: &egui::Painter, rect: Rect) {
+        let Some(sel) = self.state.selection.as_ref().filter(|_| self.state.view != ViewKind::Raster) else {
+            return;
+        };
+        let (w, h) = (self.state.settings.width as f32, self.state.settings.height as f32);
+        let at = |x: f32, y: f32| Pos2::new(rect.min.x + x / w * rect.width(), rect.min.y + y / h * rect.height());
+        let s = Stroke::new(1.5, Color32::from_rgb(255, 220, 0));
+        let (a, b) = (sel.first().pixel, sel.pixels.last().expect("not empty").pixel);
+        if sel.pixels.len() > 1 {
+            let r = Rect::from_min_max(at(a.0 as f32, a.1 as f32), at(b.0 as f32 + 1.0, b.1 as f32 + 1.0));
+            painter.rect_stroke(r.expand(2.0), 0.0, s, egui::StrokeKind::Outside);
+        } else {
+            let p = at(a.0 as f32 + 0.5, a.1 as f32 + 0.5);
+            painter.circle_stroke(p, 6.0, s);
+            painter.line_segment([p - Vec2::X * 10.0, p + Vec2::X * 10.0], s);
+            painter.line_segment([p - Vec2::Y * 10.0, p + Vec2::Y * 10.0], s);
         }
     }
 
@@ -595,6 +731,127 @@ impl RayscopeApp {
             });
         }
         ctx.request_repaint();
+    }
+}
+
+/// A debugged pixel's position, colour swatch and value.
+fn pixel_swatch(ui: &mut egui::Ui, p: &PixelDebug) {
+    ui.horizontal(|ui| {
+        ui.label(format!("pixel ({}, {})", p.pixel.0, p.pixel.1));
+        let color = p.color();
+        let c = color.clamp(glam::Vec3::ZERO, glam::Vec3::ONE) * 255.0;
+        let (r, _) = ui.allocate_exact_size(Vec2::splat(14.0), Sense::hover());
+        ui.painter().rect_filled(r, 2.0, Color32::from_rgb(c.x as u8, c.y as u8, c.z as u8));
+        ui.label(format!("({:.3}, {:.3}, {:.3})", color.x, color.y, color.z));
+    });
+}
+
+/// The rays of one sample's tree, each a collapsible entry (`salt`: the pixel and sample, for
+/// their ids); `listed` counts the entries of every tree so far, which stop at [`LISTED_RAYS`].
+fn ray_list(ui: &mut egui::Ui, st: &ViewerState, tree: &RayTree, salt: ((u32, u32), u32), listed: &mut usize) {
+    if let Some(cut) = &tree.cut {
+        ui.colored_label(ui.visuals().warn_fg_color, format!("Tree cut: {cut}"));
+    }
+    let room = LISTED_RAYS.saturating_sub(*listed);
+    for (i, r) in tree.rays.iter().enumerate().take(room) {
+        let title = format!("#{i} {:?} · depth {}", r.kind, r.depth);
+        egui::CollapsingHeader::new(title).id_salt(("ray", salt, i)).default_open(i < 4).show(ui, |ui| {
+            match &r.hit {
+                None => {
+                    ui.label("missed");
+                }
+                Some(h) => {
+                    let mat = &st.scene.materials[h.material as usize];
+                    ui.label(format!("hit at t = {:.4}", h.t));
+                    ui.label(format!("primitive {} · material '{}'", h.prim, mat.name));
+                }
+            }
+            ui.label(format!("colour ({:.3}, {:.3}, {:.3})", r.color[0], r.color[1], r.color[2]));
+            let reached = r.shadows.iter().filter(|s| s.blocked_at.is_none()).count();
+            if !r.shadows.is_empty() {
+                let rays = counted(r.shadows.len() as u64, "shadow ray", "shadow rays");
+                ui.label(format!("{rays}: {reached} reached, {} blocked", r.shadows.len() - reached));
+            }
+            for stopped in &r.stopped {
+                ui.label(format!("adaptive depth control: {stopped}"));
+            }
+            skipped_lights(ui, r);
+        });
+    }
+    *listed += tree.rays.len().min(room);
+    if let Some(more) = tree.rays.len().checked_sub(room).filter(|&n| n > 0) {
+        ui.label(format!(
+            "… and {} more, not listed here (`rayscope debug` prints them all)",
+            counted(more as u64, "ray", "rays")
+        ));
+    }
+}
+
+/// The light points skipped at a ray's hit, counted per light and reason: "light 0: 3 points
+/// skipped, behind the surface (shading normal)".
+fn skipped_lights(ui: &mut egui::Ui, r: &rayscope::record::RecordedRay) {
+    let mut groups: Vec<(usize, rayscope::record::SkipReason, u64)> = Vec::new();
+    for s in &r.skipped_lights {
+        match groups.iter_mut().find(|g| g.0 == s.light && g.1 == s.reason) {
+            Some(g) => g.2 += 1,
+            None => groups.push((s.light, s.reason, 1)),
+        }
+    }
+    for (light, reason, n) in groups {
+        let points = counted(n, "point", "points");
+        ui.label(format!("light {light}: {points} skipped (no shadow ray), {reason}"));
+    }
+}
+
+/// Three decimals per channel, one number when they are equal.
+fn rgb3(c: glam::Vec3) -> String {
+    if c.x == c.y && c.y == c.z { format!("{:.3}", c.x) } else { format!("({:.3}, {:.3}, {:.3})", c.x, c.y, c.z) }
+}
+
+/// The first selected pixel's value as a sum of terms, one row per term; a click on a row
+/// highlights its ray, or its light and shadow rays, in 3D.
+fn explanation_table(ui: &mut egui::Ui, st: &mut ViewerState) {
+    let Some(p) = st.selection.as_ref().map(|s| s.first()) else { return };
+    let e = &p.explanation;
+    ui.label(format!("pixel ({}, {}) = the sum of these terms (click a row to see it in 3D)", p.pixel.0, p.pixel.1));
+    let mut pick = None;
+    egui::ScrollArea::both().max_height(320.0).id_salt("explanation").show(ui, |ui| {
+        egui::Grid::new("explanation-grid").striped(true).show(ui, |ui| {
+            for h in ["sample", "ray", "term", "factors", "value", "x weight", "x share", "= adds"] {
+                ui.strong(h);
+            }
+            ui.end_row();
+            for (i, t) in e.terms.iter().enumerate() {
+                let here = Highlight { sample: t.sample, ray: t.ray, light: t.light };
+                let on = st.highlight == Some(here);
+                if ui.selectable_label(on, t.sample.to_string()).clicked() {
+                    pick = Some(if on { None } else { Some(here) });
+                }
+                let kind = e.rays.iter().find(|r| r.sample == t.sample && r.ray == t.ray).map(|r| r.kind.noun());
+                if ui.selectable_label(on, format!("#{} {}", t.ray, kind.unwrap_or(""))).clicked() {
+                    pick = Some(Some(Highlight { light: None, ..here }));
+                }
+                let light = t.light.map_or(String::new(), |l| format!(" light {l}"));
+                ui.label(format!("{}{light}", t.kind.name())).on_hover_text(format!("term {i}"));
+                ui.label(t.factors_text());
+                ui.label(rgb3(t.value));
+                ui.label(rgb3(t.path_weight));
+                ui.label(format!("{:.3}", t.sample_weight));
+                ui.label(rgb3(t.contribution));
+                ui.end_row();
+            }
+        });
+    });
+    ui.label(format!("sum of the terms: ({:.6}, {:.6}, {:.6})", e.sum.x, e.sum.y, e.sum.z));
+    ui.label(format!("the pixel (renderer): ({:.6}, {:.6}, {:.6})", e.value.x, e.value.y, e.value.z));
+    if !e.complete {
+        ui.colored_label(ui.visuals().warn_fg_color, "a ray tree was cut: the terms of unrecorded rays are missing");
+    }
+    for s in &e.dropped_samples {
+        ui.label(format!("sample {s}: not finite, added as black"));
+    }
+    if let Some(h) = pick {
+        st.highlight = h;
     }
 }
 

@@ -208,7 +208,8 @@ impl ViewerState {
     /// The pixel values of the selected pixel in both images, when comparing.
     pub fn compared_values(&self) -> Option<PixelValues> {
         let (c, sel) = (self.compare.as_ref()?, self.selection.as_ref()?);
-        Some(c.values_at(sel.pixel.0, sel.pixel.1))
+        let (x, y) = sel.first().pixel;
+        Some(c.values_at(x, y))
     }
 
     /// A click on pixel `(x, y)`: in a comparison view the camera goes back to the scene's
@@ -260,7 +261,7 @@ mod tests {
         s.trackball.orbit(20.0, 10.0);
         s.click_pixel(x, y);
         assert_eq!(s.trackball, crate::trackball::Trackball::from_desc(&s.scene.camera));
-        assert_eq!(s.selection.as_ref().unwrap().pixel, (x, y));
+        assert_eq!(s.selection.as_ref().unwrap().first().pixel, (x, y));
         let v = s.compared_values().unwrap();
         let c = s.compare.as_ref().unwrap();
         assert_ne!(v.theirs.0, v.ours.0, "a differing pixel's 8-bit values differ");

@@ -2,6 +2,13 @@
 //! and the debugger's lines, drawn with depth into an offscreen texture that egui shows as an
 //! image. Rendering offscreen keeps the depth buffer ours (egui's own pass has none) and works
 //! the same in a window and in headless tests.
+//!
+//! Lines are screen-space quads (wgpu's own lines are one pixel wide), one instance per
+//! segment, clipped to the near plane before they are widened. Each is drawn twice against the
+//! scene's depth: solid where it is in front of every surface, faded where a surface hides it,
+//! so a ray tree stays readable inside a closed room. Over the ray-traced image and the heat
+//! map the scene is drawn into the depth buffer only ([`Backdrop::DepthOnly`]) and the overlay
+//! comes out on a transparent texture that egui lays over the image.
 
 use bytemuck::{Pod, Zeroable};
 use eframe::egui_wgpu::{self, wgpu};
@@ -37,10 +44,40 @@ pub struct LineVertex {
 struct Uniforms {
     view_proj: [[f32; 4]; 4],
     eye: [f32; 4],
+    /// Target width and height in pixels, the line width in pixels, and the alpha factor of
+    /// hidden line parts.
+    viewport: [f32; 4],
+}
+
+/// How much of a line's opacity is left where a surface hides it.
+pub const HIDDEN_ALPHA: f32 = 0.3;
+
+/// What the preview draws behind the overlay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backdrop {
+    /// The shaded scene on a dark background (the raster view).
+    Scene,
+    /// Nothing visible: the scene only in the depth buffer, the background transparent, for
+    /// drawing the overlay over another image (the ray-traced view, the heat map).
+    DepthOnly,
+}
+
+/// The overlay to draw: its lines (pairs of vertices), a version number that changes with them
+/// (they upload again only then), the line width in pixels and the backdrop.
+#[derive(Clone, Copy, Debug)]
+pub struct OverlayDraw<'a> {
+    /// Segment end points, two vertices per segment.
+    pub lines: &'a [LineVertex],
+    /// Changes whenever `lines` does.
+    pub version: u64,
+    /// Line width in physical pixels.
+    pub width_px: f32,
+    /// What is drawn behind the lines.
+    pub backdrop: Backdrop,
 }
 
 const SHADER: &str = r#"
-struct U { view_proj: mat4x4<f32>, eye: vec4<f32> };
+struct U { view_proj: mat4x4<f32>, eye: vec4<f32>, viewport: vec4<f32> };
 @group(0) @binding(0) var<uniform> u: U;
 
 struct MeshOut {
@@ -73,19 +110,64 @@ struct LineOut {
     @location(0) color: vec4<f32>,
 };
 
+// One instance per segment a-b, six vertices: a quad `u.viewport.z` pixels wide around it.
 @vertex
-fn vs_line(@location(0) pos: vec3<f32>, @location(1) color: vec4<f32>) -> LineOut {
+fn vs_line(
+    @builtin(vertex_index) vi: u32,
+    @location(0) a: vec3<f32>,
+    @location(1) ca: vec4<f32>,
+    @location(2) b: vec3<f32>,
+    @location(3) cb: vec4<f32>,
+) -> LineOut {
     var o: LineOut;
-    o.clip = u.view_proj * vec4<f32>(pos, 1.0);
+    var pa = u.view_proj * vec4<f32>(a, 1.0);
+    var pb = u.view_proj * vec4<f32>(b, 1.0);
     // Pull lines slightly towards the eye so those lying on surfaces win the depth test.
-    o.clip.z = o.clip.z - 2e-4 * o.clip.w;
-    o.color = color;
+    pa.z = pa.z - 2e-4 * pa.w;
+    pb.z = pb.z - 2e-4 * pb.w;
+    if (pa.z < 0.0 && pb.z < 0.0) {
+        // Wholly behind the near plane: a degenerate quad outside the clip volume.
+        o.clip = vec4<f32>(0.0, 0.0, -1.0, 1.0);
+        o.color = vec4<f32>(0.0);
+        return o;
+    }
+    // Clip to the near plane (z = 0) before dividing by w: a camera ray starts at the eye.
+    if (pa.z < 0.0) {
+        pa = mix(pa, pb, pa.z / (pa.z - pb.z));
+    }
+    if (pb.z < 0.0) {
+        pb = mix(pb, pa, pb.z / (pb.z - pa.z));
+    }
+    let half_px = u.viewport.xy * 0.5;
+    let sa = pa.xy / pa.w * half_px;
+    let sb = pb.xy / pb.w * half_px;
+    var dir = vec2<f32>(1.0, 0.0);
+    if (distance(sa, sb) > 1e-6) {
+        dir = normalize(sb - sa);
+    }
+    let normal = vec2<f32>(-dir.y, dir.x);
+    // Corners (end, side): (0,-1) (0,1) (1,1) (0,-1) (1,1) (1,-1).
+    let ends = array<f32, 6>(0.0, 0.0, 1.0, 0.0, 1.0, 1.0);
+    let sides = array<f32, 6>(-1.0, 1.0, 1.0, -1.0, 1.0, -1.0);
+    let end = ends[vi];
+    var p = mix(pa, pb, end);
+    // Square caps: half a width past each end, so joined segments leave no notch.
+    let off_px = (normal * sides[vi] + dir * (end * 2.0 - 1.0)) * u.viewport.z * 0.5;
+    p = vec4<f32>(p.xy + off_px / half_px * p.w, p.z, p.w);
+    o.clip = p;
+    o.color = mix(ca, cb, end);
     return o;
 }
 
 @fragment
 fn fs_line(i: LineOut) -> @location(0) vec4<f32> {
     return i.color;
+}
+
+// The parts of lines that a surface hides: the same colour, fainter.
+@fragment
+fn fs_line_hidden(i: LineOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(i.color.rgb, i.color.a * u.viewport.w);
 }
 "#;
 
@@ -102,14 +184,30 @@ struct Target {
 /// The preview renderer; one per window.
 pub struct Preview {
     mesh_pipeline: wgpu::RenderPipeline,
+    /// The scene into the depth buffer only, for [`Backdrop::DepthOnly`].
+    depth_only_pipeline: wgpu::RenderPipeline,
+    /// Lines where they are in front of the scene.
     line_pipeline: wgpu::RenderPipeline,
+    /// Lines where the scene hides them, faded.
+    hidden_line_pipeline: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     mesh: Option<(wgpu::Buffer, u32, usize)>,
-    /// The overlay's vertex buffer (none when there are no lines), its vertex count and the
+    /// The overlay's vertex buffer (none when there are no lines), its segment count and the
     /// version of the lines it holds.
     lines: Option<(Option<wgpu::Buffer>, u32, u64)>,
     target: Option<Target>,
+}
+
+/// What differs between the preview's pipelines.
+#[derive(Clone)]
+struct PipelineSpec<'a> {
+    vs: &'static str,
+    fs: &'static str,
+    buffer: wgpu::VertexBufferLayout<'a>,
+    depth_write: bool,
+    depth_compare: wgpu::CompareFunction,
+    write_mask: wgpu::ColorWrites,
 }
 
 /// The projection that matches the ray tracer's camera: local +z forward, screen right along
@@ -221,37 +319,36 @@ impl Preview {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = |vs: &str, fs: &str, attrs: &[wgpu::VertexAttribute], stride: usize, topology, depth_write| {
+        let pipeline = |p: PipelineSpec<'_>| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(vs),
+                label: Some(p.fs),
                 layout: Some(&pipeline_layout),
                 vertex: wgpu::VertexState {
                     module: &shader,
-                    entry_point: Some(vs),
+                    entry_point: Some(p.vs),
                     compilation_options: Default::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: stride as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: attrs,
-                    })],
+                    buffers: &[Some(p.buffer)],
                 },
-                primitive: wgpu::PrimitiveState { topology, ..Default::default() },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    ..Default::default()
+                },
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(depth_write),
-                    depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                    depth_write_enabled: Some(p.depth_write),
+                    depth_compare: Some(p.depth_compare),
                     stencil: Default::default(),
                     bias: Default::default(),
                 }),
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
-                    entry_point: Some(fs),
+                    entry_point: Some(p.fs),
                     compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState {
                         format: COLOR_FORMAT,
                         blend: Some(wgpu::BlendState::ALPHA_BLENDING),
-                        write_mask: wgpu::ColorWrites::ALL,
+                        write_mask: p.write_mask,
                     })],
                 }),
                 multiview_mask: None,
@@ -259,29 +356,54 @@ impl Preview {
             })
         };
         let mesh_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3];
-        let line_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4];
-        let mesh_pipeline = pipeline(
-            "vs_mesh",
-            "fs_mesh",
-            &mesh_attrs,
-            std::mem::size_of::<MeshVertex>(),
-            wgpu::PrimitiveTopology::TriangleList,
-            true,
-        );
-        let line_pipeline = pipeline(
-            "vs_line",
-            "fs_line",
-            &line_attrs,
-            std::mem::size_of::<LineVertex>(),
-            wgpu::PrimitiveTopology::LineList,
-            false,
-        );
-        Preview { mesh_pipeline, line_pipeline, uniforms, bind_group, mesh: None, lines: None, target: None }
+        let mesh_buffer = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<MeshVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &mesh_attrs,
+        };
+        // A segment is two consecutive `LineVertex`es, read per instance.
+        let line_attrs = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4, 2 => Float32x3, 3 => Float32x4];
+        let line_buffer = wgpu::VertexBufferLayout {
+            array_stride: 2 * std::mem::size_of::<LineVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &line_attrs,
+        };
+        let mesh = PipelineSpec {
+            vs: "vs_mesh",
+            fs: "fs_mesh",
+            buffer: mesh_buffer.clone(),
+            depth_write: true,
+            depth_compare: wgpu::CompareFunction::LessEqual,
+            write_mask: wgpu::ColorWrites::ALL,
+        };
+        let line = PipelineSpec {
+            vs: "vs_line",
+            fs: "fs_line",
+            buffer: line_buffer,
+            depth_write: false,
+            depth_compare: wgpu::CompareFunction::LessEqual,
+            write_mask: wgpu::ColorWrites::ALL,
+        };
+        let mesh_pipeline = pipeline(mesh.clone());
+        let depth_only_pipeline = pipeline(PipelineSpec { write_mask: wgpu::ColorWrites::empty(), ..mesh });
+        let line_pipeline = pipeline(line.clone());
+        let hidden_line_pipeline =
+            pipeline(PipelineSpec { fs: "fs_line_hidden", depth_compare: wgpu::CompareFunction::Greater, ..line });
+        Preview {
+            mesh_pipeline,
+            depth_only_pipeline,
+            line_pipeline,
+            hidden_line_pipeline,
+            uniforms,
+            bind_group,
+            mesh: None,
+            lines: None,
+            target: None,
+        }
     }
 
-    /// Draw `scene` (identified by `scene_key`, so its vertices upload once) and `lines` (with
-    /// a version number, so that they upload again only when it changes) as seen by `camera`
-    /// into a `size`-pixel texture, and return its egui texture id.
+    /// Draw `scene` (identified by `scene_key`, so its vertices upload once) and the overlay
+    /// as seen by `camera` into a `size`-pixel texture, and return its egui texture id.
     pub fn render(
         &mut self,
         rs: &egui_wgpu::RenderState,
@@ -289,8 +411,9 @@ impl Preview {
         scene_key: usize,
         camera: &Camera,
         size: [u32; 2],
-        (lines, version): (&[LineVertex], u64),
+        overlay: OverlayDraw<'_>,
     ) -> egui::TextureId {
+        let OverlayDraw { lines, version, width_px, backdrop } = overlay;
         use wgpu::util::DeviceExt;
         let device = &rs.device;
         let size = [size[0].clamp(1, 8192), size[1].clamp(1, 8192)];
@@ -315,12 +438,17 @@ impl Preview {
                     usage: wgpu::BufferUsages::VERTEX,
                 })
             });
-            self.lines = Some((buf, lines.len() as u32, version));
+            self.lines = Some((buf, (lines.len() / 2) as u32, version));
         }
         let (near, far) = depth_range(scene, camera);
         let u = Uniforms {
             view_proj: view_projection(camera, size[0] as f32 / size[1] as f32, near, far).to_cols_array_2d(),
             eye: [camera.position.x, camera.position.y, camera.position.z, 1.0],
+            viewport: [size[0] as f32, size[1] as f32, width_px.max(0.5), HIDDEN_ALPHA],
+        };
+        let clear = match backdrop {
+            Backdrop::Scene => wgpu::Color { r: 0.06, g: 0.06, b: 0.07, a: 1.0 },
+            Backdrop::DepthOnly => wgpu::Color::TRANSPARENT,
         };
         rs.queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
         let target = self.target.as_ref().expect("made above");
@@ -333,10 +461,7 @@ impl Preview {
                     view: &target.color_view,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.06, g: 0.06, b: 0.07, a: 1.0 }),
-                        store: wgpu::StoreOp::Store,
-                    },
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(clear), store: wgpu::StoreOp::Store },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &target.depth_view,
@@ -349,14 +474,20 @@ impl Preview {
             });
             pass.set_bind_group(0, &self.bind_group, &[]);
             if let Some((buf, n, _)) = &self.mesh {
-                pass.set_pipeline(&self.mesh_pipeline);
+                pass.set_pipeline(match backdrop {
+                    Backdrop::Scene => &self.mesh_pipeline,
+                    Backdrop::DepthOnly => &self.depth_only_pipeline,
+                });
                 pass.set_vertex_buffer(0, buf.slice(..));
                 pass.draw(0..*n, 0..1);
             }
             if let Some((Some(buf), n, _)) = &self.lines {
-                pass.set_pipeline(&self.line_pipeline);
                 pass.set_vertex_buffer(0, buf.slice(..));
-                pass.draw(0..*n, 0..1);
+                // Neither pass writes depth, and a fragment passes exactly one of the two tests.
+                for pipeline in [&self.hidden_line_pipeline, &self.line_pipeline] {
+                    pass.set_pipeline(pipeline);
+                    pass.draw(0..6, 0..*n);
+                }
             }
         }
         rs.queue.submit([encoder.finish()]);

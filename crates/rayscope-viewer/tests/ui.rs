@@ -84,8 +84,8 @@ fn click_a_pixel_and_see_its_ray_tree() {
     // Click the centre of the image: pixel (400, 400).
     click(&mut h, rect.center());
     let sel = h.state().state.selection.as_ref().expect("the click selected a pixel");
-    assert_eq!(sel.pixel, (400, 400));
-    assert!(sel.tree.rays.len() >= 2, "camera ray and the mirror's reflection");
+    assert_eq!(sel.first().pixel, (400, 400));
+    assert!(sel.first().trace.samples[0].tree.rays.len() >= 2, "camera ray and the mirror's reflection");
     // The panel lists the tree.
     h.get_by_label_contains("Ray tree (");
     h.get_by_label_contains("#1 Reflection");
@@ -95,8 +95,8 @@ fn click_a_pixel_and_see_its_ray_tree() {
     let red = count(&img, rect, |c| c[0] > 90 && c[1] < 40 && c[2] < 40);
     assert!(red > 1000, "the red wall is drawn ({red} pixels)");
     let around = egui::Rect::from_center_size(rect.center(), egui::vec2(rect.width() * 0.5, rect.height() * 0.6));
-    let outline = count(&img, around, |c| near(c, rayscope_viewer::state::TRIANGLE_COLOR));
-    let shadow = count(&img, rect, |c| near(c, rayscope_viewer::state::REACHED_COLOR));
+    let outline = count(&img, around, |c| near(c, rayscope_viewer::overlay::TRIANGLE_COLOR));
+    let shadow = count(&img, rect, |c| near(c, rayscope_viewer::overlay::REACHED_COLOR));
     assert!(outline > 20 && shadow > 20, "overlay drawn: outline {outline}, shadow ray {shadow}");
 }
 
@@ -202,7 +202,7 @@ fn pick_a_scene_and_show_bvh_boxes() {
     assert_eq!(h.state().state.bvh_level, Some(0));
     let rect = h.state().image_rect.unwrap();
     let img = h.render().unwrap();
-    let boxes = count(&img, rect, |c| near(c, rayscope_viewer::state::BOX_COLOR));
+    let boxes = count(&img, rect, |c| near(c, rayscope_viewer::overlay::BOX_COLOR));
     assert!(boxes > 100, "the root box is drawn ({boxes})");
 }
 
@@ -226,7 +226,7 @@ fn the_ray_panel_explains_stopped_branches_and_a_cut_tree() {
     // The camera ray's reflection and transmission weigh 0.5 each: below 0.6, neither is cast.
     let Some(mut h) = open(rayscope::settings::RenderSettings { adc_bailout: 0.6, ..small.clone() }) else { return };
     wait_frames(&mut h, 1);
-    assert_eq!(h.state().state.selection.as_ref().unwrap().tree.rays[0].stopped.len(), 2);
+    assert_eq!(h.state().state.selection.as_ref().unwrap().first().trace.samples[0].tree.rays[0].stopped.len(), 2);
     h.get_by_label("adaptive depth control: reflection not cast: weight 0.5 below adc_bailout 0.6");
     h.get_by_label("adaptive depth control: transmission not cast: weight 0.5 below adc_bailout 0.6");
     // Its slider shows the value, not one clamped to a narrower range.
@@ -239,7 +239,143 @@ fn the_ray_panel_explains_stopped_branches_and_a_cut_tree() {
     wait_frames(&mut h, 1);
     // (The max-depth slider kept 22: it clamped to 10 before.)
     assert_eq!(h.state().state.settings.max_depth, 22);
-    assert!(h.state().state.selection.as_ref().unwrap().tree.cut.is_some());
+    assert!(h.state().state.selection.as_ref().unwrap().first().trace.samples[0].tree.cut.is_some());
     h.get_by_label_contains("Tree cut: the first 10000 rays and shadow rays are recorded");
     h.get_by_label_contains("more, not listed here");
+}
+
+/// The Cornell box with `settings`, its centre pixel (400, 400) debugged, and a frame rendered.
+fn cornell_box_centre(settings: rayscope::settings::RenderSettings) -> Option<Harness<'static, RayscopeApp>> {
+    let opts = ViewerOptions {
+        scene: "cornell-box".into(),
+        settings: Some(settings),
+        debug_pixel: Some((400, 400)),
+        ..Default::default()
+    };
+    let mut h = harness(opts)?;
+    wait_frames(&mut h, 1);
+    Some(h)
+}
+
+/// Pixels of the viewport that a kind of line adds: the view rendered with it, less without.
+fn added_by(h: &mut Harness<'_, RayscopeApp>, kind: rayscope_viewer::overlay::LineKind, want: [f32; 4]) -> usize {
+    let rect = h.state().image_rect.unwrap();
+    let with = count(&h.render().unwrap(), rect, |c| near(c, want));
+    h.get_by_label(kind.label()).click();
+    h.run_steps(3);
+    assert!(!h.state().state.shown.contains(kind), "the toggle turned {kind:?} off");
+    let without = count(&h.render().unwrap(), rect, |c| near(c, want));
+    h.get_by_label(kind.label()).click();
+    h.run_steps(3);
+    with.saturating_sub(without)
+}
+
+#[test]
+fn the_overlay_is_drawn_in_every_view_and_each_kind_toggles() {
+    use rayscope_viewer::overlay::{LineKind, REACHED_COLOR, TRIANGLE_COLOR};
+    let Some(mut h) = cornell_box_centre(rayscope::settings::RenderSettings { light_samples: 8, ..Default::default() })
+    else {
+        return;
+    };
+    for (view, label) in
+        [(ViewKind::Raster, "Raster"), (ViewKind::RayTraced, "Ray traced"), (ViewKind::HeatMap, "Heat map")]
+    {
+        h.get_by_label(label).click();
+        h.run_steps(3);
+        assert_eq!(h.state().state.view, view);
+        let shadow = added_by(&mut h, LineKind::ShadowReached, REACHED_COLOR);
+        let outline = added_by(&mut h, LineKind::Normals, TRIANGLE_COLOR);
+        assert!(shadow > 50 && outline > 20, "{view:?}: shadow rays {shadow}, outlines {outline}");
+    }
+    // Every kind has its toggle, with a tooltip.
+    for kind in LineKind::ALL {
+        h.get_by_label(kind.label());
+    }
+    // Wider lines cover more pixels.
+    h.get_by_label("Raster").click();
+    h.run_steps(3);
+    let thin = added_by(&mut h, LineKind::Normals, TRIANGLE_COLOR);
+    h.state_mut().state.line_width = 5.0;
+    h.run_steps(3);
+    let wide = added_by(&mut h, LineKind::Normals, TRIANGLE_COLOR);
+    assert!(wide > 2 * thin, "width 5 covers more than width 1.5: {wide} vs {thin}");
+    // The legend names the colours (with no selection, so that it is in view).
+    h.state_mut().state.selection = None;
+    h.run_steps(2);
+    h.get_by_label("Legend").click();
+    h.run_steps(2);
+    h.get_by_label_contains("shadow ray that reached the light");
+    h.get_by_label_contains("faded: a surface hides this part of the line");
+}
+
+#[test]
+fn ctrl_drag_selects_a_rectangle_and_a_drag_still_orbits() {
+    let opts = ViewerOptions { scene: "cornell-box".into(), ..Default::default() };
+    let Some(mut h) = harness(opts) else { return };
+    wait_frames(&mut h, 1);
+    // Image pixel (x, y)'s centre on the screen (the panels may have changed the viewport).
+    let at = |h: &Harness<'_, RayscopeApp>, x: f32, y: f32| {
+        let rect = h.state().image_rect.unwrap();
+        let px = rect.width() / 800.0;
+        Pos2::new(rect.min.x + (x + 0.5) * px, rect.min.y + (y + 0.5) * px)
+    };
+    let drag = |h: &mut Harness<'_, RayscopeApp>, from: (f32, f32), to: (f32, f32), modifiers: Modifiers| {
+        let (from, to) = (at(h, from.0, from.1), at(h, to.0, to.1));
+        h.event(Event::ModifiersChanged(modifiers));
+        h.event(Event::PointerMoved(from));
+        h.run_steps(1);
+        h.event(Event::PointerButton { pos: from, button: PointerButton::Primary, pressed: true, modifiers });
+        h.run_steps(1);
+        for i in 1..=4 {
+            h.event(Event::PointerMoved(from + (to - from) * (i as f32 / 4.0)));
+            h.run_steps(1);
+        }
+        h.event(Event::PointerButton { pos: to, button: PointerButton::Primary, pressed: false, modifiers });
+        h.event(Event::ModifiersChanged(Modifiers::NONE));
+        h.run_steps(2);
+    };
+    // From pixel (300, 300) to (309, 303): 40 pixels, 40 trees.
+    let rotation = h.state().state.trackball.rotation;
+    drag(&mut h, (300.0, 300.0), (309.0, 303.0), Modifiers::CTRL);
+    let sel = h.state().state.selection.as_ref().expect("the drag selected pixels");
+    assert_eq!(sel.first().pixel, (300, 300));
+    assert_eq!(sel.pixels.last().unwrap().pixel, (309, 303));
+    assert_eq!(sel.pixels.len(), 40);
+    assert_eq!(h.state().state.trackball.rotation, rotation, "a Ctrl-drag does not orbit");
+    h.get_by_label_contains("Ray tree of (300, 300)");
+    // A large one is clamped to 64, with a note.
+    drag(&mut h, (100.0, 100.0), (300.0, 300.0), Modifiers::CTRL);
+    let sel = h.state().state.selection.as_ref().unwrap();
+    assert_eq!((sel.pixels.len(), sel.first().pixel), (64, (100, 100)));
+    h.get_by_label_contains("at most 64 pixels are traced together");
+    // A plain drag orbits.
+    drag(&mut h, (400.0, 400.0), (500.0, 420.0), Modifiers::NONE);
+    assert_ne!(h.state().state.trackball.rotation, rotation);
+}
+
+#[test]
+fn every_sample_and_the_explanation_table() {
+    let Some(mut h) =
+        cornell_box_centre(rayscope::settings::RenderSettings { spp: 4, light_samples: 4, ..Default::default() })
+    else {
+        return;
+    };
+    let p = h.state().state.selection.as_ref().unwrap().first().clone();
+    assert_eq!(p.trace.samples.len(), 4, "all samples by default");
+    h.get_by_label_contains("Ray tree sample 3 (");
+    // The table: its sum beside the renderer's value, and a row that highlights in 3D.
+    h.get_by_label_contains("sum of the terms");
+    h.get_by_label_contains("the pixel (renderer)");
+    assert_eq!(h.state().state.highlight, None);
+    h.get_all_by_label("diffuse light 0").next().expect("a diffuse row");
+    let first = p.explanation.terms[0];
+    h.get_all_by_label(&first.sample.to_string()).next().unwrap().click();
+    h.run_steps(3);
+    let hl = h.state().state.highlight.expect("the row is highlighted");
+    assert_eq!((hl.sample, hl.ray, hl.light), (first.sample, first.ray, first.light));
+    // One sample by index.
+    h.get_by_label("One sample").click();
+    h.run_steps(3);
+    assert_eq!(h.state().state.samples, rayscope::debug::SampleChoice::One(0));
+    assert_eq!(h.state().state.selection.as_ref().unwrap().first().trace.samples.len(), 1);
 }
