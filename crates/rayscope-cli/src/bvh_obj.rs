@@ -7,19 +7,11 @@ use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Result, bail};
-use clap::ValueEnum;
 use rayscope::geometry::Aabb;
 use rayscope::output::write_file;
 use rayscope::scene::Scene;
 
-/// Which of the scene's trees to export.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum BvhTree {
-    /// The wide tree (8 or 16 children a node) that rendering traverses.
-    Wide,
-    /// The course's binary tree, which the wide one is collapsed from.
-    Binary,
-}
+pub use rayscope::bvh::BvhTree;
 
 /// The boxes of one level, split as the file's groups.
 struct LevelBoxes {

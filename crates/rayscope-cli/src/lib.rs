@@ -120,6 +120,10 @@ struct ViewArgs {
     /// Of the BVH level, draw only the nodes the debug pixel's camera ray entered.
     #[arg(long, requires = "bvh_level")]
     bvh_visited: bool,
+    /// The tree the BVH level view draws: the wide tree rendering traverses, or the course's
+    /// binary tree.
+    #[arg(long, value_enum, default_value_t = bvh_obj::BvhTree::Wide)]
+    bvh_tree: bvh_obj::BvhTree,
     /// After selecting the debug pixel, turn the camera by these angles (degrees about x and
     /// y) to see its ray tree from the side.
     #[arg(long, value_name = "DX,DY", value_parser = parse_orbit)]
@@ -632,6 +636,7 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         bvh_level: args.bvh_level,
         orbit: args.orbit,
         bvh_only_visited: args.bvh_visited,
+        bvh_tree: Some(args.bvh_tree),
         screenshot: args.screenshot,
         frames: args.frames,
         compare: args.compare,

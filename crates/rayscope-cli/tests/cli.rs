@@ -392,7 +392,17 @@ fn view_without_the_viewer_feature_says_how_to_get_it() {
 #[test]
 fn view_screenshot_under_xvfb() {
     let dir = tempfile::tempdir().unwrap();
-    let args = ["cornell-box", "--screenshot", "shot.png", "--debug-pixel", "400,400", "--bvh-level", "2"];
+    let args = [
+        "cornell-box",
+        "--screenshot",
+        "shot.png",
+        "--debug-pixel",
+        "400,400",
+        "--bvh-tree",
+        "binary",
+        "--bvh-level",
+        "2",
+    ];
     let Some(out) = view_under_xvfb(dir.path(), &[&args[..], &["--frames", "2"]].concat()) else { return };
     assert!(out.status.success(), "{}", stderr(&out));
     let img = image::open(dir.path().join("shot.png")).unwrap().to_rgb8();
@@ -614,11 +624,11 @@ fn debug_records_the_traversal_and_exports_a_bvh_level() {
     let o = rayscope(d, &["debug", "--pixel", "400,400", "--export-bvh-level", "1", "wide.obj"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let camera = &v["rays"][0]["traversal"];
+    let camera = &v["samples"][0]["rays"][0]["traversal"];
     assert_eq!(camera["query"], "packet", "{camera}");
     assert_eq!(camera["visits"][0]["at"]["node"], 0, "{camera}");
     assert!(camera["t_max"].is_null() && camera["t_min"] == 0.0, "{camera}");
-    let shadow = &v["rays"][0]["shadows"][0]["traversals"][0];
+    let shadow = &v["samples"][0]["rays"][0]["shadows"][0]["traversals"][0];
     assert_eq!(shadow["query"], "any-hit", "{shadow}");
     assert!(shadow["t_max"].as_f64().unwrap() > 0.0, "{shadow}");
 

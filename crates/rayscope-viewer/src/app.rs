@@ -51,6 +51,8 @@ pub struct ViewerOptions {
     pub bvh_level: Option<u32>,
     /// Draw only the BVH nodes the debug pixel's camera ray entered.
     pub bvh_only_visited: bool,
+    /// The tree the BVH level view draws (default: the wide tree rendering traverses).
+    pub bvh_tree: Option<BvhTree>,
     /// Turn the trackball by these angles (degrees about x and y) after selecting the debug
     /// pixel, to look at its ray tree from the side.
     pub orbit: Option<(f32, f32)>,
@@ -141,6 +143,9 @@ impl RayscopeApp {
         }
         if let Some(v) = opts.view {
             state.view = v;
+        }
+        if let Some(tree) = opts.bvh_tree {
+            state.bvh_tree = tree;
         }
         state.bvh_level = opts.bvh_level.map(|l| l.min(state.bvh_levels()));
         state.bvh_only_visited = opts.bvh_only_visited;

@@ -9,7 +9,6 @@ use egui::{Pos2, Rect};
 use glam::Vec3;
 use rayscope::camera::CameraMotion;
 use rayscope::debug::{Explanation, PixelTrace, SampleChoice, trace_pixel_samples};
-use rayscope::math::Vec3A;
 use rayscope::progressive::ImagingMode;
 use rayscope::record::RayTree;
 use rayscope::scene::{Scene, builtin};
@@ -53,13 +52,7 @@ pub enum ViewKind {
 }
 
 /// Which BVH the level view draws.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BvhTree {
-    /// The wide tree rendering traverses; "only visited" uses the renderer's recorded visits.
-    Wide,
-    /// The course's binary tree; "only visited" replays the camera rays through it.
-    Binary,
-}
+pub use rayscope::bvh::BvhTree;
 
 /// The imaging mode as the panel offers it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -419,11 +412,9 @@ impl ViewerState {
         let mut visited: Vec<u32> = trace
             .samples
             .iter()
-            .filter_map(|s| s.tree.rays.first())
-            .flat_map(|r| {
-                let ray = rayscope::ray::Ray::new(Vec3A::from_array(r.origin), Vec3A::from_array(r.dir));
-                self.scene.visited_nodes(&ray)
-            })
+            .filter_map(|s| s.tree.rays.first()?.traversal.as_ref())
+            // The camera ray as its traversal got it, with its real interval and shutter time.
+            .flat_map(|t| self.scene.visited_nodes(&t.ray()))
             .collect();
         visited.sort_unstable();
         visited.dedup();

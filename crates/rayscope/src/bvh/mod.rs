@@ -28,6 +28,18 @@ pub use wide::{
 use crate::geometry::PrimHit;
 use crate::ray::Ray;
 
+/// Which of a scene's two trees the debugger's level views and exports draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum BvhTree {
+    /// The wide tree (8 or 16 children a node) that rendering traverses; its visited nodes are
+    /// the ones the renderer's traversals entered, as the ray recorder keeps them.
+    Wide,
+    /// The course's binary tree, which the wide one is collapsed from and rendering does not
+    /// traverse; its visited nodes are a replay of the recorded rays through it.
+    Binary,
+}
+
 /// Deepest tree the builder makes; traversal stacks are sized by it.
 pub const MAX_DEPTH: usize = 64;
 
