@@ -79,10 +79,7 @@ impl<'a> Integrator<'a> {
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
     /// of weight 1 (a camera ray's).
     pub fn li<R: RayRecorder>(&self, ray: &Ray, kind: RayKind, depth: u32, ctx: &mut PathContext<R>) -> Color {
-        if R::RECORDS {
-            return self.observed(ray, kind, depth, Color::ONE, ctx);
-        }
-        self.li_hit(ray, self.scene.intersect(ray), kind, depth, ctx)
+        self.cast(ray, kind, depth, Color::ONE, ctx)
     }
 
     /// The colour arriving along camera ray `rays[lane]`, traced as the renderer traces a
@@ -124,8 +121,10 @@ impl<'a> Integrator<'a> {
         self.trace(ray, hit, None, kind, depth, Color::ONE, ctx)
     }
 
-    /// A secondary ray of `weight`: what [`Integrator::trace`] gives for its closest hit.
-    fn secondary<R: RayRecorder>(
+    /// A ray of `weight` (a camera ray's is 1): what [`Integrator::trace`] gives for its
+    /// closest hit, found here (observed for a recorder, which is told what the traversal
+    /// entered).
+    fn cast<R: RayRecorder>(
         &self,
         ray: &Ray,
         kind: RayKind,
@@ -222,7 +221,7 @@ impl<'a> Integrator<'a> {
             let transmitted = weight * (1.0 - mat.transparency);
             let behind = if self.worth_casting(RayKind::Transmission, 1, transmitted, ctx) {
                 let r = Ray::spawn(si.point, si.geo_normal, ray.dir, ray.time);
-                self.secondary(&r, RayKind::Transmission, depth + 1, transmitted, ctx)
+                self.cast(&r, RayKind::Transmission, depth + 1, transmitted, ctx)
             } else {
                 Color::ZERO
             };
@@ -278,7 +277,7 @@ impl<'a> Integrator<'a> {
                 return Color::ZERO;
             }
             let r = Ray::spawn(si.point, si.geo_normal, mirror, ray.time);
-            return self.secondary(&r, RayKind::Reflection, depth + 1, weight, ctx);
+            return self.cast(&r, RayKind::Reflection, depth + 1, weight, ctx);
         }
         let n = if ctx.glossy_split { 1 } else { self.settings.gloss_samples };
         let weight = weight / n as f32;
@@ -297,7 +296,7 @@ impl<'a> Integrator<'a> {
                 dir = (dir - 2.0 * below * si.geo_normal).normalize();
             }
             let r = Ray::spawn(si.point, si.geo_normal, dir, ray.time);
-            sum += self.secondary(&r, RayKind::Glossy, depth + 1, weight, ctx);
+            sum += self.cast(&r, RayKind::Glossy, depth + 1, weight, ctx);
         }
         ctx.glossy_split = was_split;
         sum / n as f32
@@ -410,18 +409,13 @@ impl<'a> Integrator<'a> {
     /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`.
     #[inline]
     fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Color {
-        let mat = &self.scene.materials[si.material as usize];
-        let diffuse = si.kd * cos;
-        let r = reflect(-wi, si.shading_normal);
-        let spec = r.dot(view).max(0.0);
-        let specular =
-            if mat.ks == Color::ZERO || spec == 0.0 { Color::ZERO } else { mat.ks * spec.powf(mat.shininess) };
-        diffuse + specular
+        let terms = self.phong_terms(si, wi, view, cos);
+        terms.diffuse + terms.specular
     }
 
     /// [`Integrator::phong`]'s two terms apart, and the highlight factor (the renderer adds
     /// the terms; the debugger shows them apart).
-    #[inline]
+    #[inline(always)]
     fn phong_terms(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
         let mat = &self.scene.materials[si.material as usize];
         let diffuse = si.kd * cos;
