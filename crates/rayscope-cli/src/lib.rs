@@ -15,6 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 mod bench;
 mod bvh_obj;
 mod compare;
+mod export;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -46,11 +47,19 @@ struct Cli {
 enum Command {
     /// Render a scene to an image file (.png, .exr or .pfm).
     Render(RenderArgs),
-    /// List the built-in scenes, or print one as a TOML scene file.
+    /// List the built-in scenes, print one as a TOML scene file, or write any scene as OBJ or
+    /// glTF files with a TOML scene file for the camera, lights and spheres.
     Scenes {
-        /// Print this built-in scene as TOML instead of listing them.
+        /// Print this built-in scene as TOML instead of listing them; with --format, the scene
+        /// (built-in, .toml, or a mesh file) to write.
         #[arg(long, value_name = "NAME")]
         export: Option<String>,
+        /// Write the scene's meshes in this format into DIR (with NAME.toml to load it back).
+        #[arg(long, value_enum, requires = "export")]
+        format: Option<rayscope::export::ExportFormat>,
+        /// The folder --format writes into (created if missing).
+        #[arg(value_name = "DIR", requires = "format")]
+        dir: Option<PathBuf>,
     },
     /// Trace one pixel and print its ray tree as JSON.
     Debug(DebugArgs),
@@ -395,7 +404,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
     rayscope::scene::set_max_file_bytes(cli.max_file_bytes);
     match cli.command {
         Command::Render(args) => cmd_render(args),
-        Command::Scenes { export } => done(cmd_scenes(export)),
+        Command::Scenes { export, format, dir } => done(cmd_scenes(export, format, dir)),
         Command::Debug(args) => done(cmd_debug(args)),
         Command::Compare(args) => compare::cmd_compare(args),
         Command::Bench(args) => done(cmd_bench(args)),
@@ -403,10 +412,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
     }
 }
 
-fn cmd_scenes(export: Option<String>) -> Result<()> {
+fn cmd_scenes(
+    export: Option<String>,
+    format: Option<rayscope::export::ExportFormat>,
+    dir: Option<PathBuf>,
+) -> Result<()> {
     if let Some(name) = export {
-        print!("{}", builtin::scene_desc(&name)?.to_toml());
-        return Ok(());
+        return export::cmd_export(&name, format, dir.as_deref());
     }
     for b in builtin::BUILTINS {
         let files = if b.needs_assets { " (needs the asset folder)" } else { "" };

@@ -5,7 +5,7 @@
 //! how to render it; [`render`] makes an image into a [`film`] (and traces single pixels for
 //! the debugger, whose rays [`record`] keeps; [`debug`] traces every sample of a pixel and
 //! explains its colour), [`progressive`] accumulates frames, [`aov`] renders per-pixel facts of
-//! the first hits, [`output`] writes images, and [`compare`] measures how another image differs
+//! the first hits, [`output`] writes images, [`export`] writes scenes as OBJ or glTF, and [`compare`] measures how another image differs
 //! from a render. The CLI and the
 //! viewer only map their inputs onto these types.
 //!
@@ -27,6 +27,7 @@ pub mod aov;
 pub mod camera;
 pub mod compare;
 pub mod debug;
+pub mod export;
 pub mod film;
 pub mod output;
 pub mod progressive;

@@ -121,6 +121,16 @@ impl Bounded {
         self.seek(SeekFrom::Start(0)).map(drop).map_err(|e| self.error(e))
     }
 
+    /// The position: the bytes read (or sought past) before it.
+    pub fn position(&self) -> u64 {
+        self.read
+    }
+
+    /// The size the file had when it was opened.
+    pub fn size(&self) -> u64 {
+        self.size_hint
+    }
+
     /// A buffered reader over it.
     pub fn buffered(self) -> BufReader<Bounded> {
         BufReader::with_capacity(BUFFER_BYTES, self)

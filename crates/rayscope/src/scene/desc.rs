@@ -34,7 +34,8 @@ use serde::{Deserialize, Serialize};
 use super::{Mesh, Motion, Scene, SceneSphere};
 use crate::camera::CameraDesc;
 use crate::error::{Error, Result};
-use crate::io::obj::{ObjFile, load_obj, smooth_normals};
+use crate::io::mesh_file::{MeshFile, MeshFormat, load_mesh_file};
+use crate::io::obj::{ObjFile, smooth_normals};
 use crate::io::texture::load_texture;
 use crate::light::Light;
 use crate::material::{Material, MaterialDesc, Texture};
@@ -227,6 +228,24 @@ impl SceneDesc {
         toml::to_string(self).expect("scene descriptions always serialise")
     }
 
+    /// A scene of one mesh file (OBJ, PLY or glTF): an OBJ or PLY file as [`Self::for_obj`];
+    /// a glTF file with its own camera (then not normalised: the camera was placed for the
+    /// file's coordinates) and lights, where it has them.
+    pub fn for_mesh_file(path: &Path) -> Result<SceneDesc> {
+        let mut desc = SceneDesc::for_obj(path);
+        if MeshFormat::of(path) == Some(MeshFormat::Gltf) {
+            let file = load_mesh_file(path)?;
+            if let Some(camera) = file.camera {
+                desc.camera = camera;
+                desc.meshes[0].normalize = false;
+            }
+            if !file.lights.is_empty() {
+                desc.lights = file.lights;
+            }
+        }
+        Ok(desc)
+    }
+
     /// A scene of one OBJ file, normalised, under the course's default light.
     pub fn for_obj(path: &Path) -> SceneDesc {
         SceneDesc {
@@ -294,6 +313,10 @@ struct Loaded {
     materials: Vec<(Material, Option<PathBuf>)>,
     /// What the file's reader accepted but ignored.
     warnings: Vec<String>,
+    /// Textures the file holds (glTF): a material's `texture` indexes them.
+    textures: Vec<Texture>,
+    /// The file's structure (glTF).
+    outline: Vec<String>,
 }
 
 fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut TextureCache) -> Result<Loaded> {
@@ -317,7 +340,8 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
         }
     };
     if let Some(path) = file {
-        let ObjFile { meshes, materials, raw_positions, warnings } = load_obj(&path)?;
+        let MeshFile { file: ObjFile { meshes, materials, raw_positions, warnings }, textures, outline, .. } =
+            load_mesh_file(&path)?;
         let meshes = meshes
             .into_iter()
             .map(|m| {
@@ -334,7 +358,7 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
             })
             .collect();
         let materials = materials.into_iter().map(|m| (m.material, m.texture)).collect();
-        return Ok(Loaded { meshes, raw_positions, materials, warnings });
+        return Ok(Loaded { meshes, raw_positions, materials, warnings, textures, outline });
     }
     let vertices = d.vertices.clone().unwrap_or_default();
     let faces = d.faces.clone().unwrap_or_default();
@@ -375,7 +399,14 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
     };
     // Inline meshes carry per-face material indices already; mark them with `None` so the
     // caller maps them through the local material table.
-    Ok(Loaded { meshes: vec![(mesh, None)], raw_positions: vertices, materials, warnings: Vec::new() })
+    Ok(Loaded {
+        meshes: vec![(mesh, None)],
+        raw_positions: vertices,
+        materials,
+        warnings: Vec::new(),
+        textures: Vec::new(),
+        outline: Vec::new(),
+    })
 }
 
 /// Turn a description into a scene: load files, normalise and place meshes, resolve
@@ -387,12 +418,18 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     let mut materials: Vec<Material> = vec![Material::default()];
     let mut meshes = Vec::new();
     let mut warnings = Vec::new();
+    let mut outline = Vec::new();
     for d in &desc.meshes {
         let inline = d.vertices.is_some();
         let mut loaded = load_mesh_source(d, ctx, &name, &mut textures)?;
         warnings.append(&mut loaded.warnings);
+        outline.append(&mut loaded.outline);
         let base = materials.len() as u32;
+        // The file's own textures join the scene's; its materials' indices move with them.
+        let embedded = textures.textures.len();
+        textures.textures.append(&mut loaded.textures);
         for (mut m, tex) in loaded.materials {
+            m.texture = m.texture.map(|t| t + embedded);
             if let Some(t) = tex {
                 m.texture = Some(textures.get(&t)?);
             }
@@ -452,6 +489,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     );
     scene.camera_end = desc.camera_end.clone();
     scene.warnings = warnings;
+    scene.outline = outline;
     Ok(scene)
 }
 

@@ -13,6 +13,8 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
+// The mesh file formats scenes read, by extension.
+pub use crate::io::mesh_file::MESH_EXTENSIONS;
 pub use geometry::{Geometry, Shape, SlotInfo};
 pub use visibility::LightVisibility;
 
@@ -171,11 +173,15 @@ pub struct Scene {
     /// What the loaders accepted but ignored (e.g. texture coordinate indices in an OBJ file
     /// without texture coordinates), one message each, naming the file and line.
     pub warnings: Vec<String>,
+    /// The structure of the glTF files the scene read (nodes, meshes, and each material with
+    /// its mapping to Phong), one line each, for the debugger.
+    pub outline: Vec<String>,
 }
 
 impl Scene {
-    /// Load a built-in scene by name, a `.toml` scene file, or a bare `.obj` mesh (normalised,
-    /// lit by the course's point light at (-1, 1, -1)).
+    /// Load a built-in scene by name, a `.toml` scene file, or a bare `.obj`, `.ply`, `.gltf`
+    /// or `.glb` mesh (normalised, lit by the course's point light at (-1, 1, -1); a glTF
+    /// file's own camera and lights where it has them: [`SceneDesc::for_mesh_file`]).
     pub fn load(spec: &str, assets: Option<&Path>) -> Result<Scene> {
         let path = Path::new(spec);
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -184,7 +190,7 @@ impl Scene {
                 let text = read_text(path)?;
                 (SceneDesc::from_toml(&text, path)?, path.parent().map(Path::to_path_buf))
             }
-            Some("obj") => (SceneDesc::for_obj(path), None),
+            Some("obj" | "ply" | "gltf" | "glb") => (SceneDesc::for_mesh_file(path)?, None),
             _ => (builtin::scene_desc(spec)?, None),
         };
         let ctx =
@@ -233,6 +239,7 @@ impl Scene {
             build_time,
             has_transparency,
             warnings: Vec::new(),
+            outline: Vec::new(),
         }
     }
 
