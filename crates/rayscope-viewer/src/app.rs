@@ -281,9 +281,18 @@ impl RayscopeApp {
                     }
                 }
             });
-            if ui.button("Open scene/OBJ…").on_hover_text("Open a .toml scene file or an .obj mesh").clicked() {
+            if ui
+                .button("Open scene/mesh…")
+                .on_hover_text("Open a .toml scene file or a mesh: .obj, .ply, .gltf or .glb")
+                .clicked()
+            {
                 let dir = std::env::current_dir().unwrap_or_default();
                 self.browser = Some(FileBrowser::new(dir));
+            }
+            if crate::scene_file::has_contents(&self.state.scene)
+                && ui.button("Scene file").on_hover_text("What the scene's files hold and what was skipped").clicked()
+            {
+                crate::scene_file::open(ui.ctx());
             }
             if ui
                 .button("Reload")
@@ -876,6 +885,7 @@ impl eframe::App for RayscopeApp {
             egui::ScrollArea::vertical().show(ui, |ui| self.debugger_panel(ui));
         });
         egui::CentralPanel::no_frame().show(ui, |ui| self.viewport(ui, frame));
+        crate::scene_file::scene_file_window(&ctx, &self.state.scene);
         if let Some(b) = &mut self.browser {
             match b.show(&ctx) {
                 BrowserAction::None => {}

@@ -1,7 +1,9 @@
 //! A small file browser in egui itself (no native dialog, so it works on any desktop and in
-//! headless tests): folders and `.toml`/`.obj` files, one click to open.
+//! headless tests): folders, `.toml` scene files and mesh files (`.obj`, `.ply`, `.gltf`, `.glb`), one click to open.
 
 use std::path::{Path, PathBuf};
+
+use rayscope::scene::MESH_EXTENSIONS;
 
 /// The browser's state.
 pub struct FileBrowser {
@@ -37,7 +39,9 @@ impl FileBrowser {
                     let name = e.file_name().to_string_lossy().into_owned();
                     let is_dir = e.file_type().map(|t| t.is_dir()).unwrap_or(false);
                     let ext = Path::new(&name).extension().and_then(|x| x.to_str()).map(str::to_ascii_lowercase);
-                    if (is_dir && !name.starts_with('.')) || matches!(ext.as_deref(), Some("toml" | "obj")) {
+                    if (is_dir && !name.starts_with('.'))
+                        || ext.as_deref().is_some_and(|e| e == "toml" || MESH_EXTENSIONS.contains(&e))
+                    {
                         self.entries.push((name, is_dir));
                     }
                 }

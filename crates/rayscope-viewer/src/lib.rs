@@ -12,6 +12,7 @@ pub mod heat;
 pub mod overlay;
 pub mod plural;
 pub mod preview;
+pub mod scene_file;
 pub mod session;
 pub mod state;
 pub mod trackball;

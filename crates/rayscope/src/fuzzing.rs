@@ -41,6 +41,15 @@ pub const MTL_NAME: &str = "fuzz.mtl";
 /// See [`OBJ_NAME`].
 pub const TEXTURE_NAME: &str = "fuzz.png";
 
+/// The name [`gltf`] writes a JSON glTF input under.
+pub const GLTF_NAME: &str = "fuzz.gltf";
+
+/// The name [`gltf`] writes a GLB input under.
+pub const GLB_NAME: &str = "fuzz.glb";
+
+/// The name [`ply`] writes its input under.
+pub const PLY_NAME: &str = "fuzz.ply";
+
 /// A valid mesh a scene file may name (`path = "cube.obj"`), with its material library and
 /// texture (`checker.png`, 2 x 2 texels, written by [`FuzzDir::new`]).
 const CUBE_OBJ: &str = "mtllib cube.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
@@ -96,6 +105,26 @@ pub fn obj_mtl(dir: &FuzzDir, input: &[u8]) -> Result<Scene> {
     dir.write(MTL_NAME, next())?;
     dir.write(TEXTURE_NAME, next())?;
     Scene::from_desc(&SceneDesc::for_obj(&obj), &LoadContext { base_dir: dir.path().to_path_buf(), assets: None })
+}
+
+/// A glTF file (a GLB when it starts with GLB's magic bytes, else JSON), written as
+/// [`GLTF_NAME`] or [`GLB_NAME`] and loaded as `rayscope render fuzz.glb` loads it (camera,
+/// lights, the scene, BVH and all); its external buffers and images find the fixtures.
+pub fn gltf(dir: &FuzzDir, input: &[u8]) -> Result<Scene> {
+    let name = if input.starts_with(b"glTF") { GLB_NAME } else { GLTF_NAME };
+    mesh_file(dir, name, input)
+}
+
+/// A PLY file, written as [`PLY_NAME`] and loaded as `rayscope render fuzz.ply` loads it.
+pub fn ply(dir: &FuzzDir, input: &[u8]) -> Result<Scene> {
+    mesh_file(dir, PLY_NAME, input)
+}
+
+/// `input` written as `name` in `dir` and loaded as the command line loads a mesh file.
+fn mesh_file(dir: &FuzzDir, name: &str, input: &[u8]) -> Result<Scene> {
+    let path = dir.write(name, input)?;
+    let desc = SceneDesc::for_mesh_file(&path)?;
+    Scene::from_desc(&desc, &LoadContext { base_dir: dir.path().to_path_buf(), assets: None })
 }
 
 /// Scene file text (TOML), parsed and loaded as `rayscope render scene.toml` does, with the

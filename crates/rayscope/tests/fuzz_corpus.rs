@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use rayscope::fuzzing::{FuzzDir, image, obj_mtl, render_scene, scene_file};
+use rayscope::fuzzing::{FuzzDir, gltf, image, obj_mtl, ply, render_scene, scene_file};
 
 /// Every file of the target's corpus and regressions, sorted (an empty list fails: a moved
 /// folder must not pass unnoticed).
@@ -40,6 +40,22 @@ fn obj_mtl_corpus_loads_or_fails_cleanly() {
     let dir = FuzzDir::new().unwrap();
     replay("obj_mtl", |input| {
         let _ = obj_mtl(&dir, input);
+    });
+}
+
+#[test]
+fn gltf_corpus_loads_or_fails_cleanly() {
+    let dir = FuzzDir::new().unwrap();
+    replay("gltf", |input| {
+        let _ = gltf(&dir, input);
+    });
+}
+
+#[test]
+fn ply_corpus_loads_or_fails_cleanly() {
+    let dir = FuzzDir::new().unwrap();
+    replay("ply", |input| {
+        let _ = ply(&dir, input);
     });
 }
 

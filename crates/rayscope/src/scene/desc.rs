@@ -425,11 +425,14 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         warnings.append(&mut loaded.warnings);
         outline.append(&mut loaded.outline);
         let base = materials.len() as u32;
-        // The file's own textures join the scene's; its materials' indices move with them.
+        // A file's own textures join the scene's, and its materials' indices move with them
+        // (an inline mesh's materials index the scene's textures already).
         let embedded = textures.textures.len();
         textures.textures.append(&mut loaded.textures);
         for (mut m, tex) in loaded.materials {
-            m.texture = m.texture.map(|t| t + embedded);
+            if !inline {
+                m.texture = m.texture.map(|t| t + embedded);
+            }
             if let Some(t) = tex {
                 m.texture = Some(textures.get(&t)?);
             }
