@@ -163,7 +163,8 @@ enum ViewArg {
 
 #[derive(Args)]
 struct SceneArgs {
-    /// A built-in scene name (see `rayscope scenes`), a .toml scene file or an .obj file.
+    /// A built-in scene name (see `rayscope scenes`), a .toml scene file or a mesh file (.obj,
+    /// .ply, .gltf or .glb).
     #[arg(default_value = builtin::DEFAULT_SCENE)]
     scene: String,
     /// Folder with the course's scene files; else the RAYSCOPE_ASSETS environment variable,
