@@ -252,8 +252,8 @@ impl RayscopeApp {
     fn submit_job(&mut self) {
         let camera = self.state.camera();
         let heat = self.state.view == ViewKind::HeatMap;
-        let key = (self.state.generation, camera, heat, self.state.max_spp, self.state.exposure_frames);
-        if self.last_job == Some(key) {
+        let key = (self.state.generation, camera.clone(), heat, self.state.max_spp, self.state.exposure_frames);
+        if self.last_job.as_ref() == Some(&key) {
             return;
         }
         self.last_job = Some(key);

@@ -28,6 +28,7 @@ pub mod camera;
 pub mod compare;
 pub mod debug;
 pub mod film;
+pub mod motion;
 pub mod output;
 pub mod progressive;
 pub mod record;
