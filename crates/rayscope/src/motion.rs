@@ -80,6 +80,9 @@ pub struct MotionPath {
     interpolation: Interpolation,
     /// One per pair of neighbouring keys.
     segments: Vec<Segment>,
+    /// Every key is the same translation: [`MotionPath::at`] is exactly that, at any time
+    /// (interpolating between equal values would round).
+    still: bool,
 }
 
 /// One segment `[t0, t0 + h]` as a cubic in `u = (t - t0) / h`:
@@ -127,7 +130,8 @@ impl MotionPath {
         if segments.iter().any(|s| !(s.a.is_finite() && s.b.is_finite() && s.c.is_finite())) {
             return Err("the keyframes are too close in time for their distance (the path's speed overflows)".into());
         }
-        Ok(MotionPath { keys, interpolation, segments })
+        let still = keys.iter().all(|k| k.translation == keys[0].translation);
+        Ok(MotionPath { keys, interpolation, segments, still })
     }
 
     /// Today's linear motion: `start` when the shutter opens, `end` when it closes.
@@ -148,7 +152,12 @@ impl MotionPath {
 
     /// The same keys, interpolated as `interpolation`.
     pub fn with_interpolation(&self, interpolation: Interpolation) -> MotionPath {
-        MotionPath { segments: segments(&self.keys, interpolation), keys: self.keys.clone(), interpolation }
+        MotionPath {
+            segments: segments(&self.keys, interpolation),
+            keys: self.keys.clone(),
+            interpolation,
+            still: self.still,
+        }
     }
 
     /// The translation when the shutter opens: the first key's.
@@ -158,7 +167,7 @@ impl MotionPath {
 
     /// Whether every key is the same translation (the path stands still).
     pub fn is_still(&self) -> bool {
-        self.keys.iter().all(|k| k.translation == self.keys[0].translation)
+        self.still
     }
 
     /// Whether this is the linear motion of two keys at times 0 and 1, whose translation at `t`
@@ -176,7 +185,7 @@ impl MotionPath {
         let first = self.keys[0].time;
         let last = self.keys[self.keys.len() - 1].time;
         // A time that is not a number holds at the start too.
-        if t <= first || t.is_nan() {
+        if self.still || t <= first || t.is_nan() {
             return self.segments[0].d;
         }
         if t >= last {
