@@ -149,18 +149,24 @@ impl Geometry {
     #[inline(always)]
     pub fn intersect_shape(&self, shape: &Shape, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
         match shape {
-            Shape::Moving(i) => {
-                let m = &self.moving[*i as usize];
-                let offset = match m.motion {
-                    ShapeMotion::Linear { delta } => delta * ray.time,
-                    ShapeMotion::Path(p) => self.paths[p as usize].at(ray.time),
-                };
-                // Moving the ray back is moving the shape forward.
-                let local = Ray { origin: ray.origin - offset, ..*ray };
-                m.shape.intersect(&local, t_min, t_max)
-            }
+            Shape::Moving(i) => self.intersect_moving(*i, ray, t_min, t_max),
             s => s.intersect(ray, t_min, t_max),
         }
+    }
+
+    /// Intersect moving shape `i` at the ray's time. Out of line: evaluating a path is much
+    /// code, and inlined into every traversal's leaf test it changed the static scenes'
+    /// code (0.16% more instructions for the Cornell box, which has no moving shape).
+    #[inline(never)]
+    fn intersect_moving(&self, i: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
+        let m = &self.moving[i as usize];
+        let offset = match m.motion {
+            ShapeMotion::Linear { delta } => delta * ray.time,
+            ShapeMotion::Path(p) => self.paths[p as usize].at(ray.time),
+        };
+        // Moving the ray back is moving the shape forward.
+        let local = Ray { origin: ray.origin - offset, ..*ray };
+        m.shape.intersect(&local, t_min, t_max)
     }
 
     /// The box of `shape` over the whole shutter interval: for a linear translation, the

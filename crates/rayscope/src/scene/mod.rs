@@ -30,7 +30,7 @@ use crate::error::Result;
 use crate::geometry::Aabb;
 use crate::io::file::read_text;
 use crate::math::{Color, Vec2, Vec3A, face_forward};
-use crate::motion::MotionPath;
+use crate::motion::{Interpolation, MotionPath};
 use crate::settings::{RenderSettings, ShadingOptions};
 
 /// A triangle mesh with per-vertex attributes and a material per triangle.
@@ -236,6 +236,30 @@ impl Scene {
             end: self.camera_end.as_ref().map(Camera::from_desc),
             path: self.camera_path.clone(),
         }
+    }
+
+    /// Interpolate every path of the scene (its meshes', spheres' and camera's) as
+    /// `interpolation`, and rebuild the BVH around the paths' new bounds.
+    pub fn set_motion_interpolation(&mut self, interpolation: Interpolation) {
+        let paths = self.meshes.iter_mut().map(|m| &mut m.motion);
+        let paths = paths.chain(self.spheres.iter_mut().map(|s| &mut s.motion)).chain([&mut self.camera_path]);
+        let mut changed = false;
+        for path in paths.flatten() {
+            changed |= path.interpolation() != interpolation;
+            *path = path.with_interpolation(interpolation);
+        }
+        if changed {
+            let start = Instant::now();
+            self.geometry = Geometry::build(&self.meshes, &self.spheres, &self.prims);
+            self.build_time = start.elapsed();
+        }
+    }
+
+    /// Whether anything moves along a path (a mesh, a sphere or the camera).
+    pub fn has_paths(&self) -> bool {
+        self.meshes.iter().any(|m| m.motion.is_some())
+            || self.spheres.iter().any(|s| s.motion.is_some())
+            || self.camera_path.is_some()
     }
 
     /// Number of triangles.
