@@ -206,6 +206,34 @@ keys = [[0, [0, 0, 0]], [1, [0.1, 0, 0]]]
     }
 
     #[test]
+    fn the_state_draws_paths_and_edits_the_interpolation() {
+        let mut st = ViewerState::new("cornell-box-motion", None);
+        let path_vertices = |st: &ViewerState| st.overlay_lines().iter().filter(|v| v.color == PATH_COLOR).count();
+        assert_eq!(path_vertices(&st), 2 * 4 * STEPS_PER_SEGMENT, "four segments of the loop");
+        let key = st.overlay_key();
+        st.show_paths = false;
+        assert_eq!(path_vertices(&st), 0);
+        assert_ne!(st.overlay_key(), key, "the lines are made again when paths are hidden");
+        st.show_paths = true;
+        st.select_pixel(340, 460);
+        let generation = st.generation;
+        st.set_motion_interpolation(Interpolation::Linear);
+        assert_eq!(st.scene.spheres[0].motion.as_ref().unwrap().interpolation(), Interpolation::Linear);
+        assert!(st.generation > generation, "the render restarts");
+        assert!(st.selection.is_some(), "the selection stays");
+        // The scene is loaded again with the override.
+        st.reload();
+        assert_eq!(st.scene.spheres[0].motion.as_ref().unwrap().interpolation(), Interpolation::Linear);
+        // Rays coloured by time: each camera ray in its sample's colour.
+        st.color_by = crate::overlay::ColorBy::Time;
+        let lines = st.overlay_lines();
+        for sample in &st.selection.as_ref().unwrap().first().trace.samples {
+            let c = time_color(sample.time);
+            assert!(lines.iter().any(|v| v.color == c), "sample {} at {}", sample.index, sample.time);
+        }
+    }
+
+    #[test]
     fn time_colours_run_from_blue_to_orange() {
         let near = |a: [f32; 4], b: [f32; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-6);
         assert!(near(time_color(0.0), TIME_START_COLOR) && near(time_color(1.0), TIME_END_COLOR));
