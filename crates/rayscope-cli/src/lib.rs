@@ -25,6 +25,7 @@ use rayscope::camera::CameraDesc;
 use rayscope::debug::{PixelTrace, SampleChoice, trace_pixel_samples, write_rays_obj};
 use rayscope::film::Film;
 use rayscope::math::Vec3;
+use rayscope::motion::Interpolation;
 use rayscope::output::{Encoding, Format, write_image};
 use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::{MAX_RECORDED_RAYS, RayTree};
@@ -120,6 +121,9 @@ struct ViewArgs {
     /// Highlight row N (from 0) of the debugged pixel's explanation table in 3D.
     #[arg(long, value_name = "N")]
     explain_row: Option<usize>,
+    /// Colour the overlay's rays by recursion depth, by kind, or by their sample's shutter time.
+    #[arg(long, value_enum, value_name = "depth|kind|time")]
+    color_rays_by: Option<ColorRaysBy>,
     /// Width of the debugger's overlay lines, in points.
     #[arg(long, value_name = "W", value_parser = parse_line_width)]
     line_width: Option<f32>,
@@ -235,6 +239,28 @@ struct SettingsArgs {
     /// optionally followed by a distance: `RX,RY,RZ[,DIST]`.
     #[arg(long, value_name = "RX,RY,RZ[,DIST]", value_parser = parse_camera_end)]
     camera_end: Option<CameraEnd>,
+    /// Interpolate every keyframed path of the scene (objects' and the camera's) this way,
+    /// whatever the scene file says: `linear` or `catmull-rom`.
+    #[arg(long, value_name = "linear|catmull-rom", value_parser = parse_interpolation)]
+    interpolation: Option<Interpolation>,
+}
+
+fn parse_interpolation(s: &str) -> Result<Interpolation, String> {
+    Interpolation::ALL
+        .into_iter()
+        .find(|i| i.name() == s)
+        .ok_or_else(|| format!("'{s}': expected linear or catmull-rom"))
+}
+
+/// How `view` colours the overlay's rays (`--color-rays-by`).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ColorRaysBy {
+    /// By recursion depth (the course's colours).
+    Depth,
+    /// By the kind of ray.
+    Kind,
+    /// By the sample's shutter time.
+    Time,
 }
 
 /// The `--camera-end` pose: trackball rotation and, optionally, distance.
@@ -454,6 +480,12 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
     s.validate()?;
     let mut scene = scene;
+    if let Some(i) = f.interpolation {
+        scene.set_motion_interpolation(i);
+    }
+    if f.camera_end.is_some() && scene.camera_path.is_some() {
+        bail!("--camera-end: the scene's camera already moves along its `camera_motion` path");
+    }
     if let Some(end) = &f.camera_end {
         let CameraDesc::Trackball { look_at, distance, fov, .. } = scene.camera else {
             bail!("--camera-end needs a trackball camera; give a look-at scene's end pose as `camera_end` in its file");
@@ -653,6 +685,12 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         screenshot: args.screenshot,
         frames: args.frames,
         compare: args.compare,
+        motion_interpolation: args.scene.settings.interpolation,
+        color_by: args.color_rays_by.map(|c| match c {
+            ColorRaysBy::Depth => rayscope_viewer::overlay::ColorBy::Depth,
+            ColorRaysBy::Kind => rayscope_viewer::overlay::ColorBy::Kind,
+            ColorRaysBy::Time => rayscope_viewer::overlay::ColorBy::Time,
+        }),
     })
 }
 

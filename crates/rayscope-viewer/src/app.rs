@@ -64,6 +64,10 @@ pub struct ViewerOptions {
     pub frames: u32,
     /// An image to compare with ours (see [`crate::compare`]).
     pub compare: Option<PathBuf>,
+    /// Interpolate every keyframed path of the scene this way (default: the scene file's).
+    pub motion_interpolation: Option<rayscope::motion::Interpolation>,
+    /// Colour the overlay's rays this way (default: by depth).
+    pub color_by: Option<crate::overlay::ColorBy>,
 }
 
 /// Open the viewer window; returns when it closes (or, with a screenshot, once it is saved).
@@ -132,6 +136,12 @@ impl RayscopeApp {
     pub fn new(cc: &eframe::CreationContext<'_>, opts: ViewerOptions) -> RayscopeApp {
         let spec = if opts.scene.is_empty() { builtin::DEFAULT_SCENE.to_string() } else { opts.scene.clone() };
         let mut state = ViewerState::new(&spec, opts.assets.clone());
+        if let Some(i) = opts.motion_interpolation {
+            state.set_motion_interpolation(i);
+        }
+        if let Some(c) = opts.color_by {
+            state.color_by = c;
+        }
         if let Some(s) = opts.settings.clone() {
             state.set_settings(s);
         }
@@ -252,8 +262,8 @@ impl RayscopeApp {
     fn submit_job(&mut self) {
         let camera = self.state.camera();
         let heat = self.state.view == ViewKind::HeatMap;
-        let key = (self.state.generation, camera, heat, self.state.max_spp, self.state.exposure_frames);
-        if self.last_job == Some(key) {
+        let key = (self.state.generation, camera.clone(), heat, self.state.max_spp, self.state.exposure_frames);
+        if self.last_job.as_ref() == Some(&key) {
             return;
         }
         self.last_job = Some(key);
@@ -417,6 +427,7 @@ impl RayscopeApp {
                 st.reset_camera();
             }
         });
+        egui::CollapsingHeader::new("Motion").default_open(true).show(ui, |ui| crate::motion::panel(ui, st));
         egui::CollapsingHeader::new("Render to file").default_open(true).show(ui, |ui| {
             ui.text_edit_singleline(&mut self.save_path).on_hover_text("A .png, .exr or .pfm path");
             if ui.button("Save image").on_hover_text("Write the current ray-traced image (atomically)").clicked() {
@@ -478,7 +489,7 @@ impl RayscopeApp {
                     let of_pixel = if several { format!(" of ({}, {})", p.pixel.0, p.pixel.1) } else { String::new() };
                     let of_sample =
                         if p.trace.samples.len() > 1 { format!(" sample {}", sample.index) } else { String::new() };
-                    let title = format!("Ray tree{of_pixel}{of_sample} ({rays})");
+                    let title = format!("Ray tree{of_pixel}{of_sample} ({rays}, time {:.3})", sample.time);
                     egui::CollapsingHeader::new(title).id_salt(("tree", n, k)).default_open(n == 0 && k == 0).show(
                         ui,
                         |ui| {
@@ -535,6 +546,10 @@ impl RayscopeApp {
                     .on_hover_text("The camera ray white, then warmer colours per bounce (as the course does)");
                 ui.radio_value(&mut st.color_by, ColorBy::Kind, "kind")
                     .on_hover_text("Camera, reflection, glossy and transmission rays each in their own colour");
+                ui.radio_value(&mut st.color_by, ColorBy::Time, "time").on_hover_text(
+                    "Each sample's rays by its shutter time: blue when the shutter opens, orange when it closes \
+                     (motion blur: where moving things were for that sample)",
+                );
             });
             ui.checkbox(&mut st.rect_tool, "Select rectangle by dragging").on_hover_text(
                 "A drag selects a rectangle of pixels (up to 64) instead of orbiting; Ctrl-drag does so always",

@@ -128,6 +128,8 @@ pub enum ColorBy {
     Depth,
     /// By what cast the ray: camera, reflection, glossy, transmission.
     Kind,
+    /// By the shutter time of its sample (motion blur): see [`crate::motion::time_color`].
+    Time,
 }
 
 /// A ray that hit nothing: drawn a stretch past the scene.
@@ -212,6 +214,7 @@ pub fn legend(color_by: ColorBy) -> Vec<LegendEntry> {
                 out.push(entry(kind_color(k), &format!("{}s", k.noun())));
             }
         }
+        ColorBy::Time => out.extend(crate::motion::time_legend()),
     }
     out.push(entry(MISS_COLOR, "a ray that hit nothing"));
     out.push(entry(REACHED_COLOR, "shadow ray that reached the light"));
@@ -225,6 +228,7 @@ pub fn legend(color_by: ColorBy) -> Vec<LegendEntry> {
     out.push(entry(BOX_COLOR, "BVH node box"));
     out.push(entry(LEAF_COLOR, "BVH leaf box"));
     out.push(entry(HIGHLIGHT_COLOR, "the explanation row selected"));
+    out.extend(crate::motion::path_legend());
     out.push(entry([1.0, 1.0, 1.0, HIDDEN_ALPHA], "faded: a surface hides this part of the line"));
     out
 }

@@ -263,7 +263,7 @@ pub fn scene_vertices(scene: &Scene) -> Vec<MeshVertex> {
     }
     let (rings, segs) = (16, 32);
     for s in &scene.spheres {
-        let c = s.center + s.motion.map_or(Vec3A::ZERO, |m| m.start);
+        let c = s.center + s.motion.as_ref().map_or(Vec3A::ZERO, |m| m.start());
         let color = color_of(s.material);
         let point = |i: u32, j: u32| {
             let th = std::f32::consts::PI * i as f32 / rings as f32;

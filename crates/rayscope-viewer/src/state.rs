@@ -9,6 +9,7 @@ use egui::{Pos2, Rect};
 use glam::Vec3;
 use rayscope::camera::CameraMotion;
 use rayscope::debug::{Explanation, PixelTrace, SampleChoice, trace_pixel_samples};
+use rayscope::motion::Interpolation;
 use rayscope::progressive::ImagingMode;
 use rayscope::record::RayTree;
 use rayscope::scene::{Scene, builtin};
@@ -172,6 +173,7 @@ pub struct OverlayKey {
     color_by: ColorBy,
     highlight: Option<Highlight>,
     selection: Option<u64>,
+    show_paths: bool,
 }
 
 /// Everything the viewer shows and edits.
@@ -223,6 +225,10 @@ pub struct ViewerState {
     pub generation: u64,
     /// An image compared with ours (`--compare`), and its views.
     pub compare: Option<crate::compare::CompareViews>,
+    /// Draw the paths of moving objects and of the camera.
+    pub show_paths: bool,
+    /// The interpolation every path is given on loading (`None`: the scene file's).
+    pub motion_interpolation: Option<Interpolation>,
 }
 
 impl ViewerState {
@@ -254,6 +260,8 @@ impl ViewerState {
             highlight: None,
             generation: 0,
             compare: None,
+            show_paths: true,
+            motion_interpolation: None,
         };
         s.load_scene(spec);
         s
@@ -262,7 +270,10 @@ impl ViewerState {
     /// Load another scene; on failure keep the current one and record the error.
     pub fn load_scene(&mut self, spec: &str) {
         match Scene::load(spec, self.assets.as_deref()) {
-            Ok(scene) => {
+            Ok(mut scene) => {
+                if let Some(i) = self.motion_interpolation {
+                    scene.set_motion_interpolation(i);
+                }
                 self.trackball = Trackball::from_desc(&scene.camera);
                 self.settings = RenderSettings {
                     width: self.settings.width,
@@ -298,6 +309,13 @@ impl ViewerState {
     pub fn scene_file(&self) -> Option<PathBuf> {
         let p = PathBuf::from(&self.scene_spec);
         p.is_file().then_some(p)
+    }
+
+    /// Interpolate every path of the scene as `interpolation`, now and on every later load
+    /// (keeping the camera, the settings and the selection, as a reload does).
+    pub fn set_motion_interpolation(&mut self, interpolation: Interpolation) {
+        self.motion_interpolation = Some(interpolation);
+        self.reload();
     }
 
     /// Back to the scene's own camera.
@@ -467,6 +485,7 @@ impl ViewerState {
             color_by: self.color_by,
             highlight: self.highlight,
             selection: self.selection.as_ref().map(|s| s.id),
+            show_paths: self.show_paths,
         }
     }
 
@@ -476,6 +495,9 @@ impl ViewerState {
         let r = self.scale();
         for light in &self.scene.lights {
             out.light(light, r, None);
+        }
+        if self.show_paths {
+            crate::motion::path_lines(&mut out, &self.scene, r);
         }
         if let Some(level) = self.bvh_level {
             let pixels = || self.selection.iter().flat_map(|s| &s.pixels);
@@ -551,6 +573,7 @@ impl ViewerState {
             let color = match self.color_by {
                 ColorBy::Depth => depth_color(ray.depth, ray.kind),
                 ColorBy::Kind => kind_color(ray.kind),
+                ColorBy::Time => crate::motion::ray_time_color(ray).unwrap_or_else(|| kind_color(ray.kind)),
             };
             let ray_shown = shown(LineKind::of_ray(ray.kind));
             match &ray.hit {

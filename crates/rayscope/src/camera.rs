@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::math::{Mat3, Quat, Vec2, Vec3, Vec3A, quat_from_euler_degrees};
+use crate::motion::MotionPath;
 use crate::ray::Ray;
 
 /// How a scene describes its camera. Every field has a default, `kind` too (a trackball), so
@@ -240,27 +241,41 @@ impl RayGenerator {
     }
 }
 
-/// A camera that may move during the exposure: `start` at shutter time 0, `end` at 1.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A camera that may move during the exposure: `start` at shutter time 0, and either `end` at
+/// 1 (interpolated) or a `path` its position is translated along (its orientation and field of
+/// view stay `start`'s).
+#[derive(Clone, Debug, PartialEq)]
 pub struct CameraMotion {
-    /// The pose when the shutter opens.
+    /// The pose when the shutter opens (with a path: before the path's translation).
     pub start: Camera,
-    /// The pose when it closes (`None`: the camera stands still).
+    /// The pose when it closes (`None`: no end pose).
     pub end: Option<Camera>,
+    /// A path the camera's position is translated along (`None`: none); it takes precedence
+    /// over `end` (scene files give one or the other).
+    pub path: Option<MotionPath>,
 }
 
 impl CameraMotion {
     /// A camera that does not move.
     pub fn still(camera: Camera) -> CameraMotion {
-        CameraMotion { start: camera, end: None }
+        CameraMotion { start: camera, end: None, path: None }
     }
 
-    /// The pose at shutter time `t` in `[0, 1)`: positions and fields of view interpolated
+    /// Whether the camera has one pose for the whole exposure (no end pose, no path), so that
+    /// all its rays share a pinhole and can be traced in packets.
+    #[inline]
+    pub fn is_still(&self) -> bool {
+        self.end.is_none() && self.path.is_none()
+    }
+
+    /// The pose at shutter time `t` in `[0, 1)`: along the path, the start pose translated by
+    /// the path's value at `t`; towards an end pose, positions and fields of view interpolated
     /// linearly, orientations by slerp.
     #[inline]
     pub fn at(&self, t: f32) -> Camera {
-        match &self.end {
-            Some(end) if *end != self.start => Camera {
+        match (&self.path, &self.end) {
+            (Some(path), _) => Camera { position: self.start.position + path.at(t), ..self.start },
+            (None, Some(end)) if *end != self.start => Camera {
                 position: self.start.position.lerp(end.position, t),
                 rotation: self.start.rotation.slerp(end.rotation, t),
                 fov_y: self.start.fov_y + (end.fov_y - self.start.fov_y) * t,
@@ -307,9 +322,9 @@ mod tests {
             rotation: Vec3::new(20.0, 60.0, 0.0),
             fov: 50.0,
         });
-        let m = CameraMotion { start: a, end: Some(b) };
+        let m = CameraMotion { start: a, end: Some(b), path: None };
         assert!(m.at(0.0).position.distance(a.position) < 1e-6 && m.at(0.0).rotation.dot(a.rotation) > 1.0 - 1e-6);
-        assert_eq!(CameraMotion { start: a, end: Some(a) }.at(0.3), a, "no motion is exactly still");
+        assert_eq!(CameraMotion { start: a, end: Some(a), path: None }.at(0.3), a, "no motion is exactly still");
         let mid = m.at(0.5);
         // Slerp keeps the eye on the trackball's sphere only for the rotation; the position is
         // a straight line, so the midpoint lies inside it.

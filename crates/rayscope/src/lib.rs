@@ -29,6 +29,7 @@ pub mod compare;
 pub mod debug;
 pub mod export;
 pub mod film;
+pub mod motion;
 pub mod output;
 pub mod progressive;
 pub mod record;

@@ -134,7 +134,7 @@ impl Progressive {
         progress: &(dyn Fn(RenderProgress) + Sync),
     ) -> FrameInfo {
         let start = Instant::now();
-        if self.mode == ImagingMode::Dynamic && self.last_camera.is_some_and(|c| c != *camera) {
+        if self.mode == ImagingMode::Dynamic && self.last_camera.as_ref().is_some_and(|c| c != camera) {
             self.reset();
         }
         let s = &self.settings;
@@ -154,7 +154,7 @@ impl Progressive {
                 SamplePass { samples, limit: total, planned: total, seed: s.seed }
             }
         };
-        self.last_camera = Some(*camera);
+        self.last_camera = Some(camera.clone());
         let (rays, complete) = render_pass(scene, &self.settings, camera, &mut self.film, pass, cancel, progress);
         self.frame += 1;
         FrameInfo {

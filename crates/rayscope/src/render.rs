@@ -78,7 +78,7 @@ pub fn render_pass(
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> (RayCounts, bool) {
     let integrator = Integrator::new(scene, settings);
-    let still = camera.end.is_none().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
+    let still = camera.is_still().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
     let setup = Pass { integrator: &integrator, camera, still: still.as_ref(), pass };
     let w = settings.width as usize;
     let total = w * settings.height as usize;
@@ -209,7 +209,7 @@ impl Pass<'_> {
     fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
         let sampler = self.sampler(x, y, k);
         let ray = self.camera_ray(x, y, &sampler);
-        if R::RECORDS && self.camera.end.is_none() {
+        if R::RECORDS && self.camera.is_still() {
             // A still camera's rays go through the BVH in packets (`sample_run`): the recorder
             // is told what the packet of this pixel's run entered for its ray.
             let (rays, lane) = self.camera_run(x, y, k);
@@ -310,6 +310,12 @@ pub fn render_cancellable(
     let pass = SamplePass { samples: settings.spp, limit: settings.spp, planned: settings.spp, seed: settings.seed };
     let (rays, complete) = render_pass(scene, settings, &scene.camera_motion(), &mut film, pass, cancel, progress);
     RenderOutput { film, rays, elapsed: start.elapsed(), complete }
+}
+
+/// The shutter time of sample `k` of pixel `(x, y)` in [`render`] (with `planned =
+/// settings.spp`): the time its camera ray, and every ray after it, carries.
+pub fn sample_time(settings: &RenderSettings, x: u32, y: u32, k: u32) -> f32 {
+    PixelSampler::new(settings.seed, y * settings.width + x, k, settings.spp).time
 }
 
 /// Trace sample `k` of pixel `(x, y)` alone through `camera`, exactly as [`render`] does (with

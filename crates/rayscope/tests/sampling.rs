@@ -269,7 +269,7 @@ fn moving_sphere(end_x: f32) -> SceneDesc {
             center: Vec3::new(-1.0, 0.0, 0.0),
             radius: 0.2,
             material: white(),
-            motion: Some(MotionDesc { start: Vec3::ZERO, end: Vec3::new(end_x, 0.0, 0.0) }),
+            motion: Some(MotionDesc::Linear { start: Vec3::ZERO, end: Vec3::new(end_x, 0.0, 0.0) }),
         }],
         ..SceneDesc::default()
     }
@@ -391,7 +391,7 @@ fn imaging_modes() {
     d.render_frame(&scene, &cam, &never, &|_| {});
     d.render_frame(&scene, &cam, &never, &|_| {});
     assert_eq!(d.film().sample_range(), (2, 2));
-    let mut moved = cam;
+    let mut moved = cam.clone();
     moved.start.position += Vec3A::X * 0.1;
     d.render_frame(&scene, &moved, &never, &|_| {});
     assert_eq!(d.film().sample_range(), (1, 1));

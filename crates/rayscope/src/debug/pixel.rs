@@ -11,7 +11,7 @@ use crate::camera::CameraMotion;
 use crate::film::finite_or_black;
 use crate::math::Color;
 use crate::record::RayTree;
-use crate::render::trace_pixel;
+use crate::render::{sample_time, trace_pixel};
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
 
@@ -44,6 +44,8 @@ pub struct SampleTrace {
     pub index: u32,
     /// Its share of the pixel's value: `1 / samples traced`.
     pub weight: f32,
+    /// Its shutter time in `[0, 1)`: where moving objects and a moving camera are for it.
+    pub time: f32,
     /// The colour it traced (before [`finite_or_black`]).
     pub color: Color,
     /// True when the colour was not finite and the film adds black instead.
@@ -82,7 +84,8 @@ pub fn trace_pixel_samples(
         let before = dropped;
         // Summed in sample order from zero, as the film sums them.
         sum += finite_or_black(color, &mut dropped);
-        samples.push(SampleTrace { index, weight, color, dropped: dropped > before, tree });
+        let time = sample_time(settings, x, y, index);
+        samples.push(SampleTrace { index, weight, time, color, dropped: dropped > before, tree });
     }
     // The film divides the sum by the count, as an `f32` (see `Film::get`).
     let value = if count == 0 { Color::ZERO } else { sum / count as f32 };

@@ -9,7 +9,8 @@ use crate::light::Light;
 use crate::material::MaterialDesc;
 use crate::math::{Vec2, Vec3};
 
-use super::desc::{MeshDesc, SceneDesc, SphereDesc};
+use super::desc::{MeshDesc, MotionDesc, SceneDesc, SphereDesc};
+use crate::motion::{Interpolation, Keyframe};
 
 /// A built-in scene: its name, a one-line description, and whether it needs the asset folder.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,6 +54,11 @@ pub const BUILTINS: &[BuiltinInfo] = &[
     BuiltinInfo {
         name: "spheres",
         description: "three spheres, point light (3, 0, 3) of colour 15",
+        needs_assets: false,
+    },
+    BuiltinInfo {
+        name: "cornell-box-motion",
+        description: "Cornell box, a sphere on a keyframed Catmull-Rom loop (motion blur with --spp)",
         needs_assets: false,
     },
     BuiltinInfo { name: "monkey", description: "Suzanne (monkey-rotated.obj), two point lights", needs_assets: true },
@@ -143,6 +149,7 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
                 vec![Light::Point { position: l(3.0, 0.0, 3.0), color: Vec3::splat(15.0) }],
             )
         }
+        "cornell-box-motion" => scene(name, vec![cornell_box()], vec![path_sphere()], vec![point(0.0, 0.58, 0.0)]),
         "monkey" => {
             scene(name, vec![asset("monkey-rotated.obj")], vec![], vec![point(-1.0, 1.0, -1.0), point(1.0, -1.0, -1.0)])
         }
@@ -159,6 +166,25 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
             return Err(Error::UnknownScene { name: name.to_string(), known });
         }
     })
+}
+
+/// A sphere in the Cornell box moving along a closed Catmull-Rom loop of five keys (the last
+/// the first) over the shutter interval, beside the mirror block.
+fn path_sphere() -> SphereDesc {
+    let keys = [
+        (0.0, [-0.2, 0.0, 0.0]),
+        (0.25, [0.0, 0.2, -0.1]),
+        (0.5, [0.2, 0.05, 0.0]),
+        (0.75, [0.0, -0.1, 0.1]),
+        (1.0, [-0.2, 0.0, 0.0]),
+    ];
+    let keys = keys.iter().map(|&(time, p)| Keyframe { time, translation: Vec3::from_array(p) }).collect();
+    SphereDesc {
+        center: Vec3::new(-0.25, -0.1, 0.25),
+        radius: 0.1,
+        material: MaterialDesc { kd: Some(Vec3::new(0.9, 0.6, 0.1)), ..MaterialDesc::default() },
+        motion: Some(MotionDesc::Keys { keys, interpolation: Interpolation::CatmullRom }),
+    }
 }
 
 fn material(name: &str, kd: Vec3, ks: Vec3, shininess: f32, transparency: f32) -> MaterialDesc {

@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::{Mesh, Motion, Scene, SceneSphere};
+use super::{Mesh, Scene, SceneSphere};
 use crate::camera::CameraDesc;
 use crate::error::{Error, Result};
 use crate::io::mesh_file::{MeshFile, MeshFormat, load_mesh_file};
@@ -40,6 +40,7 @@ use crate::io::texture::load_texture;
 use crate::light::Light;
 use crate::material::{Material, MaterialDesc, Texture};
 use crate::math::{Vec2, Vec3, Vec3A, quat_from_euler_degrees};
+use crate::motion::{Interpolation, Keyframe, MotionPath};
 use crate::settings::RenderSettings;
 
 /// A whole scene as written in a scene file (and as the built-ins are defined).
@@ -64,21 +65,95 @@ pub struct SceneDesc {
     /// Where the camera is when the shutter closes (motion blur); `None`: it stands still.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera_end: Option<CameraDesc>,
+    /// The camera's translation over the exposure (motion blur), instead of `camera_end`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_motion: Option<MotionDesc>,
     /// Render settings the scene asks for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render: Option<RenderSettings>,
 }
 
-/// A linear motion during the exposure: translated by `start` when the shutter opens and by
-/// `end` when it closes.
+/// A motion during the exposure, a translation: linear from `start` (at shutter open) to
+/// `end` (at close), or along keyframes `keys = [[t, [x, y, z]], ...]` with an
+/// `interpolation` (`"catmull-rom"`, the default, or `"linear"`). See [`crate::motion`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "MotionFields", into = "MotionFields")]
+pub enum MotionDesc {
+    /// Today's linear motion.
+    Linear {
+        /// Translation at shutter open.
+        start: Vec3,
+        /// Translation at shutter close.
+        end: Vec3,
+    },
+    /// Along keyframes.
+    Keys {
+        /// The keys, `(time, translation)`, times in `[0, 1]` increasing.
+        keys: Vec<Keyframe>,
+        /// How the path goes between them.
+        interpolation: Interpolation,
+    },
+}
+
+impl MotionDesc {
+    /// The path this describes (its values were checked by [`MotionDesc::path`]'s errors).
+    pub fn path(&self) -> Result<MotionPath, String> {
+        match self {
+            MotionDesc::Linear { start, end } if !(start.is_finite() && end.is_finite()) => {
+                Err("motion translations must be finite".into())
+            }
+            MotionDesc::Linear { start, end } => MotionPath::linear(*start, *end),
+            MotionDesc::Keys { keys, interpolation } => MotionPath::new(keys.clone(), *interpolation),
+        }
+    }
+}
+
+/// A motion table as written: either form's fields, read as a plain struct so that a wrong
+/// type or an unknown key is reported by name.
+#[derive(Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct MotionDesc {
-    /// Translation at shutter open.
-    #[serde(default)]
-    pub start: Vec3,
-    /// Translation at shutter close.
-    pub end: Vec3,
+struct MotionFields {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    start: Option<Vec3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    end: Option<Vec3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    keys: Option<Vec<Keyframe>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    interpolation: Option<Interpolation>,
+}
+
+impl TryFrom<MotionFields> for MotionDesc {
+    type Error = &'static str;
+
+    fn try_from(f: MotionFields) -> Result<MotionDesc, &'static str> {
+        match f {
+            MotionFields { start, end: Some(end), keys: None, interpolation: None } => {
+                Ok(MotionDesc::Linear { start: start.unwrap_or_default(), end })
+            }
+            MotionFields { start: None, end: None, keys: Some(keys), interpolation } => {
+                Ok(MotionDesc::Keys { keys, interpolation: interpolation.unwrap_or_default() })
+            }
+            MotionFields { keys: Some(_), .. } => {
+                Err("a motion has `keys` (and `interpolation`) or `start` and `end`, not both")
+            }
+            MotionFields { interpolation: Some(_), .. } => Err("`interpolation` goes with `keys`"),
+            _ => Err("a motion needs `keys = [[t, [x, y, z]], ...]` (or `end`, with `start`, for a linear one)"),
+        }
+    }
+}
+
+impl From<MotionDesc> for MotionFields {
+    fn from(d: MotionDesc) -> MotionFields {
+        match d {
+            MotionDesc::Linear { start, end } => {
+                MotionFields { start: Some(start), end: Some(end), keys: None, interpolation: None }
+            }
+            MotionDesc::Keys { keys, interpolation } => {
+                MotionFields { start: None, end: None, keys: Some(keys), interpolation: Some(interpolation) }
+            }
+        }
+    }
 }
 
 /// A mesh: from an OBJ file (`path` or `asset`) or given inline (`vertices` and `faces`).
@@ -122,7 +197,7 @@ pub struct MeshDesc {
     /// Overrides the fields it names in every material of the mesh.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<MaterialDesc>,
-    /// Linear motion during the exposure (motion blur).
+    /// Motion during the exposure (motion blur): linear or along keyframes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<MotionDesc>,
 }
@@ -156,7 +231,7 @@ pub struct SphereDesc {
     /// Material (unnamed fields take the default material's values).
     #[serde(default)]
     pub material: MaterialDesc,
-    /// Linear motion during the exposure (motion blur).
+    /// Motion during the exposure (motion blur): linear or along keyframes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub motion: Option<MotionDesc>,
 }
@@ -463,7 +538,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
                 mesh.materials.iter_mut().for_each(|m| *m = idx);
             }
             placement.apply(&mut mesh);
-            mesh.motion = motion(&d.motion);
+            mesh.motion = motion(&d.motion)?;
             meshes.push(mesh);
         }
     }
@@ -477,7 +552,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
             center: s.center.into(),
             radius: s.radius,
             material: materials.len() as u32 - 1,
-            motion: motion(&s.motion),
+            motion: motion(&s.motion)?,
         });
     }
     let mut scene = Scene::new(
@@ -491,14 +566,15 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         desc.render.clone(),
     );
     scene.camera_end = desc.camera_end.clone();
+    scene.camera_path = motion(&desc.camera_motion)?;
     scene.warnings = warnings;
     scene.outline = outline;
     Ok(scene)
 }
 
-/// The motion a description gives (its values were checked by [`check_values`]).
-fn motion(d: &Option<MotionDesc>) -> Option<Motion> {
-    d.as_ref().map(|m| Motion { start: m.start.into(), end: m.end.into() })
+/// The path a motion description gives (its values were checked by [`check_values`]).
+fn motion(d: &Option<MotionDesc>) -> Result<Option<MotionPath>> {
+    d.as_ref().map(|m| m.path().map_err(Error::Invalid)).transpose()
 }
 
 /// A value of a scene description that is out of its range, and where it is: the key in a
@@ -564,6 +640,13 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
     if let Some(c) = &desc.camera_end {
         check_camera(c).or_else(|e| bad("camera_end", None, e.key, e.message))?;
     }
+    if let Some(m) = &desc.camera_motion {
+        if desc.camera_end.is_some() {
+            bad("camera_motion", None, "", "give the camera's motion as `camera_motion` or `camera_end`, not both")?;
+        }
+        let key = if matches!(m, MotionDesc::Keys { .. }) { "keys" } else { "" };
+        check_motion(Some(m)).or_else(|msg| bad("camera_motion", None, key, &msg))?;
+    }
     if let Some(r) = &desc.render {
         r.validate().or_else(|e| bad("render", None, "", &e.to_string()))?;
     }
@@ -590,7 +673,7 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
         if let Some(t) = &m.transform {
             check_transform(t).or_else(|msg| at("transform", msg))?;
         }
-        check_motion(m.motion.as_ref()).or_else(|msg| at("motion", msg))?;
+        check_motion(m.motion.as_ref()).or_else(|msg| at("motion", &msg))?;
     }
     for (i, s) in desc.spheres.iter().enumerate() {
         let at = |key, message: &str| bad("sphere", Some(i), key, message);
@@ -601,7 +684,7 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
             at("radius", "the radius must be positive and finite")?;
         }
         check_material(&s.material).or_else(|msg| at("material", msg))?;
-        check_motion(s.motion.as_ref()).or_else(|msg| at("motion", msg))?;
+        check_motion(s.motion.as_ref()).or_else(|msg| at("motion", &msg))?;
     }
     for (i, l) in desc.lights.iter().enumerate() {
         check_light(l).or_else(|e| bad("light", Some(i), e.key, e.message))?;
@@ -678,11 +761,10 @@ fn check_transform(t: &TransformDesc) -> Result<(), &'static str> {
     Ok(())
 }
 
-fn check_motion(m: Option<&MotionDesc>) -> Result<(), &'static str> {
-    match m {
-        Some(m) if !(m.start.is_finite() && m.end.is_finite()) => Err("motion translations must be finite"),
-        _ => Ok(()),
-    }
+/// A motion's values: finite translations and, for keys, the rules of [`MotionPath::new`] (at
+/// least two, times in `[0, 1]` strictly increasing).
+fn check_motion(m: Option<&MotionDesc>) -> Result<(), String> {
+    m.map_or(Ok(()), |m| m.path().map(drop))
 }
 
 /// A light's values: finite positions and vectors, colours finite and not negative, a radius

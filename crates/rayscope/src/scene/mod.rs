@@ -32,6 +32,7 @@ use crate::error::Result;
 use crate::geometry::Aabb;
 use crate::io::file::read_text;
 use crate::math::{Color, Vec2, Vec3A, face_forward};
+use crate::motion::{Interpolation, MotionPath};
 use crate::settings::{RenderSettings, ShadingOptions};
 
 /// A triangle mesh with per-vertex attributes and a material per triangle.
@@ -49,29 +50,13 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Material of each triangle (index into [`Scene::materials`]).
     pub materials: Vec<u32>,
-    /// Linear motion during the exposure; positions are at rest (before the motion).
-    pub motion: Option<Motion>,
-}
-
-/// A linear translation over the shutter interval: `start` at time 0, `end` at time 1.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Motion {
-    /// Translation when the shutter opens.
-    pub start: Vec3A,
-    /// Translation when it closes.
-    pub end: Vec3A,
-}
-
-impl Motion {
-    /// The translation at shutter time `t`.
-    #[inline]
-    pub fn at(&self, t: f32) -> Vec3A {
-        self.start.lerp(self.end, t)
-    }
+    /// Motion during the exposure, a translation along a path; positions are at rest (before
+    /// the motion).
+    pub motion: Option<MotionPath>,
 }
 
 /// An analytic sphere with a material.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SceneSphere {
     /// Centre.
     pub center: Vec3A,
@@ -79,8 +64,8 @@ pub struct SceneSphere {
     pub radius: f32,
     /// Index into [`Scene::materials`].
     pub material: u32,
-    /// Linear motion during the exposure.
-    pub motion: Option<Motion>,
+    /// Motion during the exposure, a translation along a path.
+    pub motion: Option<MotionPath>,
 }
 
 /// Which primitive a global primitive id names.
@@ -150,6 +135,8 @@ pub struct Scene {
     pub camera: CameraDesc,
     /// The camera's pose when the shutter closes, if it moves.
     pub camera_end: Option<CameraDesc>,
+    /// The camera's translation along a path over the exposure, if it moves so.
+    pub camera_path: Option<MotionPath>,
     /// Triangle meshes.
     pub meshes: Vec<Mesh>,
     /// Spheres.
@@ -228,6 +215,7 @@ impl Scene {
             name,
             camera,
             camera_end: None,
+            camera_path: None,
             meshes,
             spheres,
             materials,
@@ -250,7 +238,35 @@ impl Scene {
 
     /// The scene's camera over the exposure.
     pub fn camera_motion(&self) -> CameraMotion {
-        CameraMotion { start: self.camera(), end: self.camera_end.as_ref().map(Camera::from_desc) }
+        CameraMotion {
+            start: self.camera(),
+            end: self.camera_end.as_ref().map(Camera::from_desc),
+            path: self.camera_path.clone(),
+        }
+    }
+
+    /// Interpolate every path of the scene (its meshes', spheres' and camera's) as
+    /// `interpolation`, and rebuild the BVH around the paths' new bounds.
+    pub fn set_motion_interpolation(&mut self, interpolation: Interpolation) {
+        let paths = self.meshes.iter_mut().map(|m| &mut m.motion);
+        let paths = paths.chain(self.spheres.iter_mut().map(|s| &mut s.motion)).chain([&mut self.camera_path]);
+        let mut changed = false;
+        for path in paths.flatten() {
+            changed |= path.interpolation() != interpolation;
+            *path = path.with_interpolation(interpolation);
+        }
+        if changed {
+            let start = Instant::now();
+            self.geometry = Geometry::build(&self.meshes, &self.spheres, &self.prims);
+            self.build_time = start.elapsed();
+        }
+    }
+
+    /// Whether anything moves along a path (a mesh, a sphere or the camera).
+    pub fn has_paths(&self) -> bool {
+        self.meshes.iter().any(|m| m.motion.is_some())
+            || self.spheres.iter().any(|s| s.motion.is_some())
+            || self.camera_path.is_some()
     }
 
     /// Number of triangles.
@@ -350,7 +366,7 @@ impl Scene {
         match self.prims[prim as usize] {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
-                let o = m.motion.map_or(Vec3A::ZERO, |mo| mo.start);
+                let o = m.motion.as_ref().map_or(Vec3A::ZERO, MotionPath::start);
                 Some(m.triangles[face as usize].map(|i| m.positions[i as usize] + o))
             }
             PrimRef::Sphere(_) => None,
@@ -394,7 +410,7 @@ impl Scene {
             }
             PrimRef::Sphere(s) => {
                 let s = &self.spheres[s as usize];
-                let center = s.center + s.motion.map_or(Vec3A::ZERO, |m| m.at(ray.time));
+                let center = s.center + s.motion.as_ref().map_or(Vec3A::ZERO, |m| m.at(ray.time));
                 let n = ((point - center) / s.radius).normalize_or_zero();
                 // Spherical coordinates, for textured spheres.
                 let uv = Vec2::new(
