@@ -29,7 +29,7 @@ use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::{MAX_RECORDED_RAYS, RayTree};
 use rayscope::render::render_cancellable;
 use rayscope::scene::{Scene, builtin};
-use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
+use rayscope::settings::{PixelFilter, RenderSettings, ShadingModel, TextureFilter};
 
 #[derive(Parser)]
 #[command(name = "rayscope", version, about = "A fast, inspectable Whitted-style ray tracer")]
@@ -187,6 +187,9 @@ struct SettingsArgs {
     /// Show unlit diffuse colours (the course's "shading off").
     #[arg(long)]
     no_shading: bool,
+    /// The scene-wide shading model; a material's own `model` (scene file) wins [default: phong].
+    #[arg(long, value_enum, value_name = "MODEL")]
+    shading_model: Option<ShadingModel>,
     /// Cast no shadow rays.
     #[arg(long)]
     no_shadows: bool,
@@ -428,6 +431,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.max_depth = f.max_depth.unwrap_or(s.max_depth);
     s.adc_bailout = f.adc_bailout.unwrap_or(s.adc_bailout);
     s.shading &= !f.no_shading;
+    s.shading_model = f.shading_model.unwrap_or(s.shading_model);
     s.shadows &= !f.no_shadows;
     s.reflections &= !f.no_reflections;
     s.transparency &= !f.no_transparency;
