@@ -13,7 +13,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod bench;
+mod bench_split;
 mod bvh_obj;
+mod bvh_split;
 mod compare;
 
 use anyhow::{Context, Result, bail};
@@ -54,6 +56,9 @@ enum Command {
     },
     /// Trace one pixel and print its ray tree as JSON.
     Debug(DebugArgs),
+    /// Print a node of the binary BVH's SAH split candidates (every plane of every axis with
+    /// its cost, and the split taken) as JSON.
+    Bvh(bvh_split::BvhArgs),
     /// Compare an image (yours) with rayscope's render of the same scene and settings: how
     /// many pixels differ, by how much, SSIM, and a difference image. Exit status 0 when no
     /// pixel differs, 1 when some do, 2 on trouble.
@@ -400,6 +405,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Render(args) => cmd_render(args),
         Command::Scenes { export } => done(cmd_scenes(export)),
         Command::Debug(args) => done(cmd_debug(args)),
+        Command::Bvh(args) => done(bvh_split::cmd_bvh(args)),
         Command::Compare(args) => compare::cmd_compare(args),
         Command::Bench(args) => done(cmd_bench(args)),
         Command::View(args) => done(cmd_view(args)),
@@ -651,8 +657,9 @@ fn cmd_bench(args: BenchArgs) -> Result<()> {
     let pool = thread_pool(args.threads)?;
     let (reps, warmup) = if args.quick { (1, 0) } else { (args.repetitions.max(1), args.warmup) };
     let threads = pool.current_num_threads();
-    let report = pool.install(|| bench::run(args.assets.as_deref(), reps, warmup, threads))?;
-    print!("{}", bench::markdown(&report));
+    let mut report = pool.install(|| bench::run(args.assets.as_deref(), reps, warmup, threads))?;
+    report.split_rules = pool.install(|| bench_split::run(args.assets.as_deref(), reps, warmup))?;
+    print!("{}{}", bench::markdown(&report), bench_split::markdown(&report.split_rules));
     if let Some(p) = &args.json {
         bench::write_text(p, &serde_json::to_string_pretty(&report)?)?;
     }
