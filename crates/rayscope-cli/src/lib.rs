@@ -129,6 +129,9 @@ struct ViewArgs {
     /// binary tree.
     #[arg(long, value_enum, default_value_t = bvh_obj::BvhTree::Wide)]
     bvh_tree: bvh_obj::BvhTree,
+    /// Show this binary BVH node's SAH split candidates (planes and cost chart) from the start.
+    #[arg(long, value_name = "NODE")]
+    split_node: Option<u32>,
     /// After selecting the debug pixel, turn the camera by these angles (degrees about x and
     /// y) to see its ray tree from the side.
     #[arg(long, value_name = "DX,DY", value_parser = parse_orbit)]
@@ -647,6 +650,7 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         orbit: args.orbit,
         bvh_only_visited: args.bvh_visited,
         bvh_tree: Some(args.bvh_tree),
+        split_node: args.split_node,
         screenshot: args.screenshot,
         frames: args.frames,
         compare: args.compare,

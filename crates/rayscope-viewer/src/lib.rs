@@ -13,6 +13,7 @@ pub mod overlay;
 pub mod plural;
 pub mod preview;
 pub mod session;
+pub mod split;
 pub mod state;
 pub mod trackball;
 pub mod worker;
