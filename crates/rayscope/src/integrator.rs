@@ -69,12 +69,18 @@ pub struct Integrator<'a> {
     pub settings: &'a RenderSettings,
     /// The settings' part that the scene's surface queries read.
     pub shading: ShadingOptions,
+    /// Whether any surface is shaded by a model other than Phong: when none is, the renderer
+    /// runs Phong's code alone, with no per-hit choice of model (the default render keeps its
+    /// instructions).
+    models: bool,
 }
 
 impl<'a> Integrator<'a> {
     /// An integrator for this scene and these settings.
     pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
-        Integrator { scene, settings, shading: settings.shading_options() }
+        let phong = |m: Option<ShadingModel>| m.unwrap_or(settings.shading_model) == ShadingModel::Phong;
+        let models = !scene.materials.iter().all(|m| phong(m.model));
+        Integrator { scene, settings, shading: settings.shading_options(), models }
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
@@ -203,7 +209,8 @@ impl<'a> Integrator<'a> {
             // The course's "shading off" view: the diffuse colour as it is.
             return si.kd;
         }
-        let mut color = self.direct(ray, si, ctx);
+        let mut color =
+            if self.models { self.direct::<true, R>(ray, si, ctx) } else { self.direct::<false, R>(ray, si, ctx) };
         let recurse = depth < s.max_depth;
         let transmits = recurse && s.transparency && mat.transparency < 1.0;
         if R::RECORDS {
@@ -307,12 +314,22 @@ impl<'a> Integrator<'a> {
     /// with shadow rays. With `light_samples == 0`
     /// each light is shaded from its centre (hard shadows); otherwise each area light gets
     /// that many stratified samples, each shaded as a point light of the light's colour there,
-    /// and contributes their mean.
-    fn direct<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, ctx: &mut PathContext<R>) -> Color {
+    /// and contributes their mean. `MODELS`: whether the scene has surfaces shaded by other
+    /// models than Phong (else every surface is Phong's, known at compile time).
+    fn direct<const MODELS: bool, R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
         let mut sum = Color::ZERO;
         let n = self.settings.light_samples;
         // The material's own model wins over the scene-wide one; resolved once per hit.
-        let model = self.scene.materials[si.material as usize].model.unwrap_or(self.settings.shading_model);
+        let model = if MODELS {
+            self.scene.materials[si.material as usize].model.unwrap_or(self.settings.shading_model)
+        } else {
+            ShadingModel::Phong
+        };
         for (i, light) in self.scene.lights.iter().enumerate() {
             if n == 0 || matches!(light, Light::Point { .. }) {
                 let center = light.center_sample(si.point);
