@@ -139,6 +139,8 @@ pub struct Report {
     pub machine: Machine,
     /// The rows.
     pub rows: Vec<Row>,
+    /// The split rules' rows (`crate::bench_split`).
+    pub split_rules: Vec<crate::bench_split::SplitRuleRow>,
 }
 
 fn machine(threads: usize, repetitions: usize, warmup: usize) -> Machine {
@@ -213,7 +215,7 @@ pub fn run(assets: Option<&Path>, repetitions: usize, warmup: usize, threads: us
         });
         eprintln!("  {render_ms:.1} ms");
     }
-    Ok(Report { machine: machine(threads, repetitions, warmup), rows })
+    Ok(Report { machine: machine(threads, repetitions, warmup), rows, split_rules: Vec::new() })
 }
 
 fn skipped(spec: &RowSpec, why: String) -> Row {

@@ -13,7 +13,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod bench;
+mod bench_split;
 mod bvh_obj;
+mod bvh_split;
 mod compare;
 mod export;
 
@@ -31,7 +33,7 @@ use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::{MAX_RECORDED_RAYS, RayTree};
 use rayscope::render::render_cancellable;
 use rayscope::scene::{Scene, builtin};
-use rayscope::settings::{PixelFilter, RenderSettings, TextureFilter};
+use rayscope::settings::{PixelFilter, RenderSettings, ShadingModel, TextureFilter};
 
 #[derive(Parser)]
 #[command(name = "rayscope", version, about = "A fast, inspectable Whitted-style ray tracer")]
@@ -64,6 +66,9 @@ enum Command {
     },
     /// Trace one pixel and print its ray tree as JSON.
     Debug(DebugArgs),
+    /// Print a node of the binary BVH's SAH split candidates (every plane of every axis with
+    /// its cost, and the split taken) as JSON.
+    Bvh(bvh_split::BvhArgs),
     /// Compare an image (yours) with rayscope's render of the same scene and settings: how
     /// many pixels differ, by how much, SSIM, and a difference image. Exit status 0 when no
     /// pixel differs, 1 when some do, 2 on trouble.
@@ -137,6 +142,9 @@ struct ViewArgs {
     /// binary tree.
     #[arg(long, value_enum, default_value_t = bvh_obj::BvhTree::Wide)]
     bvh_tree: bvh_obj::BvhTree,
+    /// Show this binary BVH node's SAH split candidates (planes and cost chart) from the start.
+    #[arg(long, value_name = "NODE")]
+    split_node: Option<u32>,
     /// After selecting the debug pixel, turn the camera by these angles (degrees about x and
     /// y) to see its ray tree from the side.
     #[arg(long, value_name = "DX,DY", value_parser = parse_orbit)]
@@ -201,6 +209,9 @@ struct SettingsArgs {
     /// Show unlit diffuse colours (the course's "shading off").
     #[arg(long)]
     no_shading: bool,
+    /// The scene-wide shading model; a material's own `model` (scene file) wins [default: phong].
+    #[arg(long, value_enum, value_name = "MODEL")]
+    shading_model: Option<ShadingModel>,
     /// Cast no shadow rays.
     #[arg(long)]
     no_shadows: bool,
@@ -433,6 +444,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Render(args) => cmd_render(args),
         Command::Scenes { export, format, dir } => done(cmd_scenes(export, format, dir)),
         Command::Debug(args) => done(cmd_debug(args)),
+        Command::Bvh(args) => done(bvh_split::cmd_bvh(args)),
         Command::Compare(args) => compare::cmd_compare(args),
         Command::Bench(args) => done(cmd_bench(args)),
         Command::View(args) => done(cmd_view(args)),
@@ -467,6 +479,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.max_depth = f.max_depth.unwrap_or(s.max_depth);
     s.adc_bailout = f.adc_bailout.unwrap_or(s.adc_bailout);
     s.shading &= !f.no_shading;
+    s.shading_model = f.shading_model.unwrap_or(s.shading_model);
     s.shadows &= !f.no_shadows;
     s.reflections &= !f.no_reflections;
     s.transparency &= !f.no_transparency;
@@ -682,6 +695,7 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         orbit: args.orbit,
         bvh_only_visited: args.bvh_visited,
         bvh_tree: Some(args.bvh_tree),
+        split_node: args.split_node,
         screenshot: args.screenshot,
         frames: args.frames,
         compare: args.compare,
@@ -698,8 +712,9 @@ fn cmd_bench(args: BenchArgs) -> Result<()> {
     let pool = thread_pool(args.threads)?;
     let (reps, warmup) = if args.quick { (1, 0) } else { (args.repetitions.max(1), args.warmup) };
     let threads = pool.current_num_threads();
-    let report = pool.install(|| bench::run(args.assets.as_deref(), reps, warmup, threads))?;
-    print!("{}", bench::markdown(&report));
+    let mut report = pool.install(|| bench::run(args.assets.as_deref(), reps, warmup, threads))?;
+    report.split_rules = pool.install(|| bench_split::run(args.assets.as_deref(), reps, warmup))?;
+    print!("{}{}", bench::markdown(&report), bench_split::markdown(&report.split_rules));
     if let Some(p) = &args.json {
         bench::write_text(p, &serde_json::to_string_pretty(&report)?)?;
     }

@@ -12,7 +12,7 @@ use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, write_image};
 use rayscope::record::RayTree;
 use rayscope::scene::builtin;
-use rayscope::settings::{MAX_DEPTH, PixelFilter, RenderSettings, TextureFilter};
+use rayscope::settings::{MAX_DEPTH, PixelFilter, RenderSettings, ShadingModel, TextureFilter};
 
 use crate::files::{BrowserAction, FileBrowser};
 use crate::overlay::{ColorBy, LineKind, legend};
@@ -53,6 +53,8 @@ pub struct ViewerOptions {
     pub bvh_only_visited: bool,
     /// The tree the BVH level view draws (default: the wide tree rendering traverses).
     pub bvh_tree: Option<BvhTree>,
+    /// Show this binary BVH node's SAH split candidates from the start.
+    pub split_node: Option<u32>,
     /// Turn the trackball by these angles (degrees about x and y) after selecting the debug
     /// pixel, to look at its ray tree from the side.
     pub orbit: Option<(f32, f32)>,
@@ -159,6 +161,7 @@ impl RayscopeApp {
         }
         state.bvh_level = opts.bvh_level.map(|l| l.min(state.bvh_levels()));
         state.bvh_only_visited = opts.bvh_only_visited;
+        state.split = opts.split_node.map(|n| crate::split::SplitView::new(&state.scene, n));
         if let Some((x, y)) = opts.debug_pixel {
             let (x, y) = (x.min(state.settings.width - 1), y.min(state.settings.height - 1));
             state.select_pixel(x, y);
@@ -374,6 +377,19 @@ impl RayscopeApp {
         let mut s = st.settings.clone();
         egui::CollapsingHeader::new("Rendering").default_open(true).show(ui, |ui| {
             ui.checkbox(&mut s.shading, "Shading").on_hover_text("Phong shading; off shows the unlit diffuse colour");
+            egui::ComboBox::from_label("Shading model")
+                .selected_text(s.shading_model.name())
+                .show_ui(ui, |ui| {
+                    for m in ShadingModel::ALL {
+                        ui.selectable_value(&mut s.shading_model, m, m.name());
+                    }
+                })
+                .response
+                .on_hover_text(
+                    "The scene-wide shading model: phong, blinn-phong (half-vector highlight), lambert (no highlight) \
+                 or gradient (the diffuse colour read from the material's gradient by n.l); a material's own \
+                 `model` wins",
+                );
             ui.checkbox(&mut s.shadows, "Shadows").on_hover_text("Cast shadow rays to the lights");
             ui.checkbox(&mut s.reflections, "Reflections").on_hover_text("Recursive mirror/glossy reflection");
             ui.checkbox(&mut s.transparency, "Transparency").on_hover_text("See through materials with d < 1");
@@ -596,6 +612,24 @@ impl RayscopeApp {
                      renderer's own traversals entered for every ray of the trees (recorded); in the binary tree, \
                      those a replay of the camera rays enters",
             );
+            let mut on = st.split.is_some();
+            ui.checkbox(&mut on, "SAH split candidates").on_hover_text(
+                "For a node of the binary tree: every candidate split plane of the builder's binned SAH drawn \
+                 across the node's box (x red, y green, z blue; the plane taken yellow) and their costs charted",
+            );
+            let mut node = st.split.as_ref().map_or(0, |v| v.node);
+            let nodes = st.scene.geometry.bvh.nodes.len().max(1) as u32;
+            ui.add_enabled(on, egui::Slider::new(&mut node, 0..=nodes - 1).text("Node")).on_hover_text(
+                "The node's index in the binary tree's depth-first array (0 is the root; its first child follows it)",
+            );
+            if !on {
+                st.split = None;
+            } else if st.split.as_ref().is_none_or(|v| v.node != node) {
+                st.split = Some(crate::split::SplitView::new(&st.scene, node));
+            }
+            if let Some(v) = &st.split {
+                v.panel(ui);
+            }
         });
     }
 

@@ -15,6 +15,7 @@ pub mod plural;
 pub mod preview;
 pub mod scene_file;
 pub mod session;
+pub mod split;
 pub mod state;
 pub mod trackball;
 pub mod worker;

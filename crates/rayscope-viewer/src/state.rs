@@ -168,6 +168,7 @@ pub struct OverlayKey {
     bvh_level: Option<u32>,
     bvh_tree: BvhTree,
     bvh_only_visited: bool,
+    split_node: Option<u32>,
     shown: ShownKinds,
     max_depth_shown: u32,
     color_by: ColorBy,
@@ -206,6 +207,8 @@ pub struct ViewerState {
     pub bvh_tree: BvhTree,
     /// Draw only the BVH nodes the selected rays entered.
     pub bvh_only_visited: bool,
+    /// The binary BVH node whose SAH split candidates are shown, if any.
+    pub split: Option<crate::split::SplitView>,
     /// Which kinds of lines are drawn.
     pub shown: ShownKinds,
     /// Rays deeper than this are not drawn (nor their shadow rays and normals).
@@ -251,6 +254,7 @@ impl ViewerState {
             bvh_level: None,
             bvh_tree: BvhTree::Wide,
             bvh_only_visited: false,
+            split: None,
             shown: ShownKinds::default(),
             max_depth_shown: rayscope::settings::MAX_DEPTH,
             color_by: ColorBy::Depth,
@@ -285,6 +289,7 @@ impl ViewerState {
                 self.error = None;
                 self.selection = None;
                 self.bvh_level = self.bvh_level.map(|l| l.min(self.bvh_levels()));
+                self.split = self.split.as_ref().map(|v| crate::split::SplitView::new(&self.scene, v.node));
                 self.generation += 1;
             }
             Err(e) => self.error = Some(format!("{e}")),
@@ -480,6 +485,7 @@ impl ViewerState {
             bvh_level: self.bvh_level,
             bvh_tree: self.bvh_tree,
             bvh_only_visited: self.bvh_only_visited,
+            split_node: self.split.as_ref().map(|v| v.node),
             shown: self.shown,
             max_depth_shown: self.max_depth_shown,
             color_by: self.color_by,
@@ -527,6 +533,9 @@ impl ViewerState {
                     }
                 }
             }
+        }
+        if let Some(split) = &self.split {
+            split.lines(&mut out);
         }
         for p in self.selection.iter().flat_map(|s| &s.pixels) {
             for tree in p.trees() {

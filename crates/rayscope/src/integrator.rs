@@ -1,4 +1,5 @@
-//! The Whitted integrator in the course's form: Phong direct lighting with shadow rays (hard,
+//! The Whitted integrator in the course's form: direct lighting by a shading model (the
+//! course's Phong unless set) with shadow rays (hard,
 //! or soft from sampled area lights), recursive mirror or glossy reflection weighted by `ks`,
 //! and transparency blended by `1 - d`.
 //!
@@ -16,7 +17,7 @@ use crate::record::{
 };
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Hit, LightVisibility, Scene, SurfaceInteraction};
-use crate::settings::{RenderSettings, ShadingOptions};
+use crate::settings::{RenderSettings, ShadingModel, ShadingOptions};
 
 /// Counts of rays cast, for throughput figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -68,12 +69,18 @@ pub struct Integrator<'a> {
     pub settings: &'a RenderSettings,
     /// The settings' part that the scene's surface queries read.
     pub shading: ShadingOptions,
+    /// Whether any surface is shaded by a model other than Phong: when none is, the renderer
+    /// runs Phong's code alone, with no per-hit choice of model (the default render keeps its
+    /// instructions).
+    models: bool,
 }
 
 impl<'a> Integrator<'a> {
     /// An integrator for this scene and these settings.
     pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
-        Integrator { scene, settings, shading: settings.shading_options() }
+        let phong = |m: Option<ShadingModel>| m.unwrap_or(settings.shading_model) == ShadingModel::Phong;
+        let models = !scene.materials.iter().all(|m| phong(m.model));
+        Integrator { scene, settings, shading: settings.shading_options(), models }
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
@@ -202,7 +209,8 @@ impl<'a> Integrator<'a> {
             // The course's "shading off" view: the diffuse colour as it is.
             return si.kd;
         }
-        let mut color = self.direct(ray, si, ctx);
+        let mut color =
+            if self.models { self.direct::<true, R>(ray, si, ctx) } else { self.direct::<false, R>(ray, si, ctx) };
         let recurse = depth < s.max_depth;
         let transmits = recurse && s.transparency && mat.transparency < 1.0;
         if R::RECORDS {
@@ -302,18 +310,31 @@ impl<'a> Integrator<'a> {
         sum / n as f32
     }
 
-    /// Phong direct lighting from every light, with shadow rays. With `light_samples == 0`
+    /// Direct lighting from every light by the surface's shading model (Phong unless set),
+    /// with shadow rays. With `light_samples == 0`
     /// each light is shaded from its centre (hard shadows); otherwise each area light gets
     /// that many stratified samples, each shaded as a point light of the light's colour there,
-    /// and contributes their mean.
-    fn direct<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, ctx: &mut PathContext<R>) -> Color {
+    /// and contributes their mean. `MODELS`: whether the scene has surfaces shaded by other
+    /// models than Phong (else every surface is Phong's, known at compile time).
+    fn direct<const MODELS: bool, R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
         let mut sum = Color::ZERO;
         let n = self.settings.light_samples;
+        // The material's own model wins over the scene-wide one; resolved once per hit.
+        let model = if MODELS {
+            self.scene.materials[si.material as usize].model.unwrap_or(self.settings.shading_model)
+        } else {
+            ShadingModel::Phong
+        };
         for (i, light) in self.scene.lights.iter().enumerate() {
             if n == 0 || matches!(light, Light::Point { .. }) {
                 let center = light.center_sample(si.point);
                 sum += self.scene.light_visibility(si, light, 1, &self.shading, |vis| {
-                    self.shade_sample(ray, si, LightPoint { light: i, samples: 1 }, &center, vis, ctx)
+                    self.shade_sample(ray, si, LightPoint { light: i, samples: 1, model }, &center, vis, ctx)
                 });
                 continue;
             }
@@ -331,7 +352,7 @@ impl<'a> Integrator<'a> {
                         strata.sample(k, ctx.sampler.next_2d())
                     };
                     let ls = sampler.sample(u);
-                    acc += self.shade_sample(ray, si, LightPoint { light: i, samples: n }, &ls, vis, ctx);
+                    acc += self.shade_sample(ray, si, LightPoint { light: i, samples: n, model }, &ls, vis, ctx);
                 }
                 acc / n as f32
             });
@@ -339,8 +360,8 @@ impl<'a> Integrator<'a> {
         sum
     }
 
-    /// One light point as a point light: Phong times the light's colour times what the shadow
-    /// ray lets through.
+    /// One light point as a point light: the shading model's terms times the light's colour
+    /// times what the shadow ray lets through.
     #[inline(always)]
     fn shade_sample<R: RayRecorder>(
         &self,
@@ -370,7 +391,7 @@ impl<'a> Integrator<'a> {
         if R::RECORDS {
             self.record_term(ray, si, point, ls, cos, arrived, ctx);
         }
-        arrived * ls.color * self.phong(si, ls.wi, -ray.dir, cos)
+        arrived * ls.color * self.shading(si, ls.wi, -ray.dir, cos, point.model)
     }
 
     /// Tell the recorder the terms of a shaded light point, as [`Integrator::shade_sample`]
@@ -389,45 +410,62 @@ impl<'a> Integrator<'a> {
         arrived: Color,
         ctx: &mut PathContext<R>,
     ) {
-        let phong = self.phong_terms(si, ls.wi, -ray.dir, cos);
+        let terms = self.shading_terms(si, ls.wi, -ray.dir, cos, point.model);
         let light = arrived * ls.color;
         ctx.recorder.light_term(&LightTerm {
             light: point.light,
             samples: point.samples,
             to: ls.point,
-            kd: si.kd,
+            model: point.model,
+            kd: terms.diffuse_color,
             cos,
             ks: self.scene.materials[si.material as usize].ks,
-            highlight: phong.highlight,
+            highlight: terms.highlight,
             light_color: ls.color,
             arrived,
-            diffuse: light * phong.diffuse,
-            specular: light * phong.specular,
+            diffuse: light * terms.diffuse,
+            specular: light * terms.specular,
         });
     }
 
-    /// The Phong BRDF times the cosine: `kd (n.l) + ks max(0, r.v)^shininess`.
+    /// The shading model's BRDF times the cosine: its two terms added.
     #[inline]
-    fn phong(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Color {
-        let terms = self.phong_terms(si, wi, view, cos);
+    fn shading(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32, model: ShadingModel) -> Color {
+        let terms = self.shading_terms(si, wi, view, cos, model);
         terms.diffuse + terms.specular
     }
 
-    /// [`Integrator::phong`]'s two terms apart, and the highlight factor (the renderer adds
-    /// the terms; the debugger shows them apart).
+    /// [`Integrator::shading`]'s two terms apart, with the diffuse colour and the highlight
+    /// factor (the renderer adds the terms; the debugger shows them apart). The one formula of
+    /// every model ([`ShadingModel`]):
+    ///
+    /// - diffuse: `kd (n.l)`; for the gradient model the gradient's colour at `n.l` (the ramp
+    ///   from black to `kd` without a gradient, which is `kd (n.l)` again);
+    /// - specular: `ks max(0, c)^shininess` with `c = r.v` (Phong, gradient), `c = n.h`
+    ///   (Blinn-Phong), none for Lambert.
     #[inline(always)]
-    fn phong_terms(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32) -> Phong {
+    fn shading_terms(&self, si: &SurfaceInteraction, wi: Vec3A, view: Vec3A, cos: f32, model: ShadingModel) -> Shading {
         let mat = &self.scene.materials[si.material as usize];
-        let diffuse = si.kd * cos;
-        let r = reflect(-wi, si.shading_normal);
-        let spec = r.dot(view).max(0.0);
+        let (diffuse_color, diffuse) = if model == ShadingModel::Gradient {
+            // Without a gradient, the ramp from black at 0 to kd at 1, read at `cos`.
+            let c = mat.gradient.as_ref().map_or(si.kd * cos, |g| g.at(cos));
+            (c, c)
+        } else {
+            (si.kd, si.kd * cos)
+        };
+        let lobe = match model {
+            ShadingModel::Phong | ShadingModel::Gradient => reflect(-wi, si.shading_normal).dot(view),
+            ShadingModel::BlinnPhong => si.shading_normal.dot((wi + view).normalize()),
+            ShadingModel::Lambert => 0.0,
+        };
+        let spec = lobe.max(0.0);
         let (specular, highlight) = if mat.ks == Color::ZERO || spec == 0.0 {
             (Color::ZERO, 0.0)
         } else {
             let highlight = spec.powf(mat.shininess);
             (mat.ks * highlight, highlight)
         };
-        Phong { diffuse, specular, highlight }
+        Shading { diffuse_color, diffuse, specular, highlight }
     }
 
     /// The fraction of light from `ls` that reaches `si` (all of it without shadows), as
@@ -484,20 +522,24 @@ fn record_skip<R: RayRecorder>(
     }
 }
 
-/// Which light a light point belongs to, and how many points that light is shaded with here.
+/// Which light a light point belongs to, how many points that light is shaded with here, and
+/// the model that shades them.
 #[derive(Clone, Copy)]
 struct LightPoint {
     light: usize,
     samples: u32,
+    model: ShadingModel,
 }
 
-/// The Phong BRDF's two terms times the cosine, and the highlight factor.
-struct Phong {
-    /// `kd (n.l)`.
+/// A shading model's two terms times the cosine, the diffuse colour and the highlight factor.
+struct Shading {
+    /// `kd`, or the gradient's colour at `n.l`.
+    diffuse_color: Color,
+    /// `kd (n.l)`, or the gradient's colour at `n.l`.
     diffuse: Color,
-    /// `ks max(0, r.v)^shininess`.
+    /// `ks max(0, c)^shininess`, `c` the model's highlight cosine (zero for Lambert).
     specular: Color,
-    /// `max(0, r.v)^shininess` (0 when `ks` is black, not computed then).
+    /// `max(0, c)^shininess` (0 when `ks` is black, not computed then).
     highlight: f32,
 }
 

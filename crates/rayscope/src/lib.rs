@@ -47,6 +47,8 @@ pub mod fuzzing;
 #[doc(hidden)]
 pub mod geometry;
 #[doc(hidden)]
+pub mod gradient;
+#[doc(hidden)]
 pub mod light;
 #[doc(hidden)]
 pub mod material;

@@ -4,8 +4,9 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use crate::gradient::{Gradient, GradientKey};
 use crate::math::{Color, Vec2};
-use crate::settings::TextureFilter;
+use crate::settings::{ShadingModel, TextureFilter};
 
 /// A Phong material in the course's form.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,6 +26,11 @@ pub struct Material {
     /// Phong exponent of the glossy reflection lobe; `None` uses `shininess`, infinity keeps
     /// the material a perfect mirror even when glossy reflections are on.
     pub glossiness: Option<f32>,
+    /// Its shading model; `None` shades it with the scene-wide
+    /// [`crate::settings::RenderSettings::shading_model`].
+    pub model: Option<ShadingModel>,
+    /// The gradient model's diffuse colours by `n.l`; `None` reads the ramp from black to `kd`.
+    pub gradient: Option<Gradient>,
 }
 
 impl Default for Material {
@@ -39,6 +45,8 @@ impl Default for Material {
             transparency: 1.0,
             texture: None,
             glossiness: None,
+            model: None,
+            gradient: None,
         }
     }
 }
@@ -68,6 +76,14 @@ pub struct MaterialDesc {
     /// Exponent of the glossy reflection lobe (default: `shininess`; `inf`: perfect mirror).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub glossiness: Option<f32>,
+    /// Shading model (`phong`, `blinn-phong`, `lambert`, `gradient`); default: the scene-wide
+    /// `shading_model`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<ShadingModel>,
+    /// The gradient model's colours by `n.l`: `[[position, [r, g, b]], ...]`, positions in
+    /// [0, 1] in increasing order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gradient: Option<Vec<GradientKey>>,
 }
 
 /// An RGB image in linear float values (the course used the 8-bit values / 255 as they are).

@@ -12,6 +12,7 @@ use crate::bvh::{QueryKind, TraversalLog, WideRef};
 use crate::math::{Color, Vec3A};
 use crate::ray::{Interval, Ray};
 use crate::scene::Scene;
+use crate::settings::ShadingModel;
 
 /// Why a ray was cast.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -129,19 +130,24 @@ pub struct LightTerm {
     /// The point on the light.
     #[serde(serialize_with = "as_array")]
     pub to: Vec3A,
-    /// The diffuse colour at the hit (the texture's when textured).
+    /// The shading model that shaded it.
+    pub model: ShadingModel,
+    /// The diffuse colour at the hit (the texture's when textured); for the gradient model,
+    /// the gradient's colour at `cos` (without a gradient, the ramp's: `kd cos`).
     pub kd: Color,
     /// The cosine between the shading normal and the direction to the light point.
     pub cos: f32,
     /// The material's specular reflectance.
     pub ks: Color,
-    /// The Phong highlight `max(0, r.v)^shininess` (0 when `ks` is black).
+    /// The highlight `max(0, c)^shininess` (0 when `ks` is black or the model has none), `c`
+    /// being `r.v` (Phong, gradient) or `n.h` (Blinn-Phong).
     pub highlight: f32,
     /// The light's colour at the point.
     pub light_color: Color,
     /// The fraction of the light the shadow ray let through (1 without shadows).
     pub arrived: Color,
-    /// `arrived * light_color * kd * cos`.
+    /// `arrived * light_color * kd * cos` (for the gradient model `arrived * light_color *
+    /// kd`: the gradient's colour is not multiplied by `cos` again).
     pub diffuse: Color,
     /// `arrived * light_color * ks * highlight`.
     pub specular: Color,

@@ -18,6 +18,9 @@ pub struct RenderSettings {
     pub height: u32,
     /// Phong shading; off shows each surface's diffuse colour unlit.
     pub shading: bool,
+    /// The scene-wide shading model: every material that names no `model` of its own is
+    /// shaded with it (a material's own model wins).
+    pub shading_model: ShadingModel,
     /// Shadow rays towards each light.
     pub shadows: bool,
     /// Recursive mirror reflection for materials with `ks > 0`.
@@ -58,6 +61,7 @@ impl Default for RenderSettings {
             width: 800,
             height: 800,
             shading: true,
+            shading_model: ShadingModel::Phong,
             shadows: true,
             reflections: true,
             transparency: true,
@@ -152,6 +156,51 @@ impl Default for ShadingOptions {
     /// The options of the default settings.
     fn default() -> Self {
         RenderSettings::default().shading_options()
+    }
+}
+
+/// How a surface turns the light of one light point into colour: the diffuse and specular
+/// terms of the direct lighting (reflections and transparency are the same for every model).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ShadingModel {
+    /// The course's Phong: `kd (n.l) + ks max(0, r.v)^shininess`, `r` the light's mirror
+    /// direction.
+    #[default]
+    Phong,
+    /// Blinn-Phong: `kd (n.l) + ks max(0, n.h)^shininess`, `h` the half vector of the light
+    /// and view directions. Equal to Phong where the viewer sits at the light's mirror
+    /// direction; elsewhere its highlight is wider for the same exponent.
+    BlinnPhong,
+    /// Lambert: the diffuse term `kd (n.l)` alone, no highlight (`ks` still weights mirror
+    /// reflections).
+    Lambert,
+    /// The course's toon-style model: the diffuse colour read from the material's gradient at
+    /// the cosine `n.l` (not multiplied by it again), plus Phong's highlight. A material
+    /// without a gradient reads the ramp from black at 0 to `kd` at 1, which is Lambert's
+    /// diffuse term.
+    Gradient,
+}
+
+impl ShadingModel {
+    /// Every model, in the order of the user interfaces.
+    pub const ALL: [ShadingModel; 4] =
+        [ShadingModel::Phong, ShadingModel::BlinnPhong, ShadingModel::Lambert, ShadingModel::Gradient];
+
+    /// Its name in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadingModel::Phong => "phong",
+            ShadingModel::BlinnPhong => "blinn-phong",
+            ShadingModel::Lambert => "lambert",
+            ShadingModel::Gradient => "gradient",
+        }
+    }
+
+    /// Whether it has a specular highlight term.
+    pub fn has_highlight(self) -> bool {
+        !matches!(self, ShadingModel::Lambert)
     }
 }
 

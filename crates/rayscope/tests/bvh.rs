@@ -6,7 +6,9 @@ mod common;
 use common::{Rng, assets, builtin_scene};
 use proptest::prelude::{Just, ProptestConfig, Strategy, any, prop, prop_oneof, proptest};
 use rayscope::bvh::wide::{Lanes, NodeWidth};
-use rayscope::bvh::{BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, WideBvh, WideTree};
+use rayscope::bvh::{
+    BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, SplitRule, WideBvh, WideTree, split_candidates,
+};
 use rayscope::geometry::aabb::safe_inv_dir;
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use rayscope::math::Vec3A;
@@ -698,4 +700,60 @@ proptest! {
     fn soup_packets_equal_single_rays((shapes, packets) in soup_and_packets()) {
         check_packets_in(&shapes, &packets);
     }
+}
+
+/// Every split rule (the SAH the renderer builds with, and the median and the seed's mean rule
+/// `rayscope bench` compares it with) yields a valid tree that gives brute force's hits, on
+/// random soups and inseparable sets.
+#[test]
+fn every_split_rule_builds_a_valid_tree_with_brute_force_hits() {
+    let mut rng = Rng(23);
+    let p = Vec3A::new(0.3, 0.2, 0.1);
+    let same: Vec<Shape> = (0..40).map(|_| Shape::Triangle(Triangle::new(p, p + Vec3A::X, p + Vec3A::Y))).collect();
+    for split_rule in SplitRule::ALL {
+        let params = BuildParams { split_rule, ..BuildParams::default() };
+        for shapes in [random_soup(&mut rng, 3000, 0.1), random_soup(&mut rng, 7, 0.5), same.clone()] {
+            let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+            let hits = check_with(&shapes, &bounds, &params, random_rays(&mut rng, 400, 1.5).into_iter());
+            assert!(shapes.len() < 3000 || hits > 50, "{split_rule:?}: the rays must hit things ({hits})");
+        }
+    }
+}
+
+/// The SAH's candidates are the builder's: at every inner node of a SAH tree (serial and
+/// parallel builds) the chosen plane is the candidate of least cost and splits the node's
+/// primitives as the builder did (the left child holds the chosen plane's left count).
+#[test]
+fn the_chosen_split_is_the_cheapest_candidate_and_the_builders() {
+    let mut rng = Rng(29);
+    for n in [2, 9, 300, 5000, 40_000] {
+        let shapes = random_soup(&mut rng, n, 0.05);
+        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let params = BuildParams::default();
+        let bvh = Bvh::build(&bounds, &params);
+        let mut inner = 0;
+        // Every node of small trees; a sample of the big ones' (the root and its neighbours).
+        for node in (0..bvh.nodes.len() as u32).take(600) {
+            let c = split_candidates(&bvh, &bounds, node, &params).unwrap();
+            assert_eq!(c.split, !bvh.nodes[node as usize].is_leaf());
+            let costs = c.axis.iter().flatten().filter_map(|k| k.cost);
+            if let Some(chosen) = c.chosen_candidate() {
+                let least = costs.fold(f32::INFINITY, f32::min);
+                assert_eq!(chosen.cost, Some(least), "node {node} of {n}");
+                assert_eq!(chosen.left + chosen.right, c.prims);
+                if c.split {
+                    inner += 1;
+                    assert_eq!(c.left_child_prims, Some(chosen.left), "node {node} of {n}: the builder's split");
+                }
+            }
+            // Planes lie inside the node's box, in increasing order per axis.
+            for (axis, planes) in c.axis.iter().enumerate() {
+                assert!(planes.iter().all(|k| k.position >= c.min[axis] && k.position <= c.max[axis]));
+                assert!(planes.windows(2).all(|w| w[0].position <= w[1].position));
+            }
+        }
+        assert!(n < 9 || inner > 0);
+    }
+    let bvh = Bvh::build(&[], &BuildParams::default());
+    assert!(split_candidates(&bvh, &[], 0, &BuildParams::default()).is_none());
 }

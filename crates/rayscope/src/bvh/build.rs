@@ -22,6 +22,41 @@ pub struct BuildParams {
     /// Primitives intersected together in one SIMD test: a leaf costs one intersection per
     /// started block of this many, as the wide BVHs' packed leaves ([`super::wide::Tri4`]) are.
     pub block_size: usize,
+    /// How a node's split is chosen: the binned SAH for every scene; the others only for
+    /// comparisons (`rayscope bench`'s split-rule rows, the debugger).
+    pub split_rule: SplitRule,
+}
+
+/// How the builder splits a node.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum SplitRule {
+    /// The binned surface area heuristic ([`super::split_candidates`] shows its planes and costs);
+    /// a node becomes a leaf where that is cheaper than its best split.
+    #[default]
+    Sah,
+    /// Halve by count at the median centroid along the widest centroid axis, down to leaves
+    /// of at most [`BuildParams::block_size`] primitives.
+    Median,
+    /// The course seed's rule, as its report describes it: along the longest axis of the
+    /// node's box, the primitives whose box starts below the mean of the boxes' lower bounds
+    /// go left; leaves of at most [`BuildParams::block_size`] primitives (a plane with nothing
+    /// on one side falls back to the median).
+    SeedMean,
+}
+
+impl SplitRule {
+    /// Every rule, the default first.
+    pub const ALL: [SplitRule; 3] = [SplitRule::Sah, SplitRule::Median, SplitRule::SeedMean];
+
+    /// Its name in tables and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            SplitRule::Sah => "sah",
+            SplitRule::Median => "median",
+            SplitRule::SeedMean => "seed-mean",
+        }
+    }
 }
 
 impl Default for BuildParams {
@@ -33,6 +68,7 @@ impl Default for BuildParams {
             intersection_cost: 1.0,
             parallel_threshold: 4096,
             block_size: 4,
+            split_rule: SplitRule::Sah,
         }
     }
 }
@@ -42,7 +78,7 @@ impl Default for BuildParams {
 /// quarter more memory for each of the passes over all primitives to stream through).
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
-struct BuildPrim {
+pub(super) struct BuildPrim {
     bounds: Aabb,
     center: [f32; 3],
     index: u32,
@@ -52,7 +88,7 @@ const _: () = assert!(std::mem::size_of::<BuildPrim>() == 48);
 
 impl BuildPrim {
     #[inline(always)]
-    fn new(bounds: Aabb, index: u32) -> BuildPrim {
+    pub(super) fn new(bounds: Aabb, index: u32) -> BuildPrim {
         BuildPrim { bounds, center: bounds.center().to_array(), index }
     }
 
@@ -70,9 +106,9 @@ const PASS_CHUNK: usize = 1 << 13;
 
 /// The box of a set of primitives and the box of their centroids.
 #[derive(Clone, Copy)]
-struct Bounds {
-    bounds: Aabb,
-    centroids: Aabb,
+pub(super) struct Bounds {
+    pub(super) bounds: Aabb,
+    pub(super) centroids: Aabb,
 }
 
 impl Bounds {
@@ -88,7 +124,7 @@ impl Bounds {
         Bounds { bounds: self.bounds.union(o.bounds), centroids: self.centroids.union(o.centroids) }
     }
 
-    fn of(prims: &[BuildPrim]) -> Bounds {
+    pub(super) fn of(prims: &[BuildPrim]) -> Bounds {
         if prims.len() > PARALLEL_PASS {
             use rayon::prelude::*;
             return prims.par_chunks(PASS_CHUNK).map(Bounds::of).reduce(|| Bounds::EMPTY, Bounds::merge);
@@ -133,7 +169,7 @@ impl Bvh {
 }
 
 #[derive(Clone, Copy)]
-struct Bin {
+pub(super) struct Bin {
     bounds: Aabb,
     count: u32,
 }
@@ -215,15 +251,9 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
         out.push(leaf);
         return;
     }
-    let split = find_split(prims, &b.bounds, &b.centroids, params);
-    let leaf_cost = params.intersection_cost * blocks(n as u32, params.block_size) as f32;
-    let mid = match split {
-        Some(s) if s.cost < leaf_cost || n > params.max_leaf_size => partition(prims, &s),
-        None if n > params.max_leaf_size => median_split(prims, &b.centroids),
-        _ => {
-            out.push(leaf);
-            return;
-        }
+    let Some(mid) = split_node(prims, &b, params) else {
+        out.push(leaf);
+        return;
     };
     let (lb, rb) = (Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]));
     let here = out.len();
@@ -246,6 +276,42 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
         out.cur[at].start = (out.len() - here) as u32;
         build_node(right, rb, right_offset, depth + 1, params, out);
     }
+}
+
+/// Split `prims` (bounds `b`) by the rule of `params`: the number put first (left), or `None`
+/// where the node is to be a leaf.
+#[inline(always)]
+fn split_node(prims: &mut [BuildPrim], b: &Bounds, params: &BuildParams) -> Option<usize> {
+    let n = prims.len();
+    if params.split_rule != SplitRule::Sah {
+        return (n > params.block_size.max(1)).then(|| simple_split(prims, b, params.split_rule));
+    }
+    let split = find_split(prims, &b.bounds, &b.centroids, params);
+    match split {
+        Some(s) if s.cost < leaf_cost(n, params) || n > params.max_leaf_size => Some(partition(prims, &s)),
+        None if n > params.max_leaf_size => Some(median_split(prims, &b.centroids)),
+        _ => None,
+    }
+}
+
+/// The SAH cost of making `n` primitives one leaf.
+#[inline(always)]
+pub(super) fn leaf_cost(n: usize, params: &BuildParams) -> f32 {
+    params.intersection_cost * blocks(n as u32, params.block_size) as f32
+}
+
+/// The comparison rules' splits ([`SplitRule::Median`], [`SplitRule::SeedMean`]).
+#[cold]
+fn simple_split(prims: &mut [BuildPrim], b: &Bounds, rule: SplitRule) -> usize {
+    if rule == SplitRule::SeedMean {
+        let axis = b.bounds.extent().max_position();
+        let mean = prims.iter().map(|p| p.bounds.min[axis] as f64).sum::<f64>() / prims.len() as f64;
+        let mid = partition_by(prims, |p| (p.bounds.min[axis] as f64) < mean);
+        if mid != 0 && mid != prims.len() {
+            return mid;
+        }
+    }
+    median_split(prims, &b.centroids)
 }
 
 fn subtree(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, params: &BuildParams) -> Nodes {
@@ -289,12 +355,12 @@ fn bin_indices(rel: Vec3A, top: Vec3A) -> [u32; 4] {
 pub const MAX_BINS: usize = 32;
 
 /// `N` bins on each axis (of which a node uses the first `nb <= N`).
-type Bins<const N: usize> = [[Bin; N]; 3];
+pub(super) type Bins<const N: usize> = [[Bin; N]; 3];
 
 const EMPTY_BIN: Bin = Bin { bounds: Aabb::EMPTY, count: 0 };
 
 /// Bin `prims` on all three axes at once (`nb <= N` bins from `lo`, `scale` bins per unit).
-fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, nb: usize) -> Bins<N> {
+pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, nb: usize) -> Bins<N> {
     if prims.len() > PARALLEL_PASS {
         use rayon::prelude::*;
         return prims.par_chunks(PASS_CHUNK).map(|c| fill_bins::<N>(c, lo, scale, nb)).reduce(
@@ -328,12 +394,17 @@ fn find_split(prims: &[BuildPrim], bounds: &Aabb, centroids: &Aabb, params: &Bui
     // Small nodes get fewer bins: with n primitives, n bins already tell every split apart,
     // and the fixed cost of clearing and sweeping 3 x 16 bins dominates there. The bins are
     // sized for the count used (clearing 3 x 32 unused bins was 8% of the dragon's build).
-    let nb = params.bins.min(prims.len().next_power_of_two().max(4)).clamp(2, MAX_BINS);
+    let nb = bin_count(prims.len(), params);
     match nb {
         ..=8 => find_split_in::<8>(prims, bounds, centroids, params, nb),
         9..=16 => find_split_in::<16>(prims, bounds, centroids, params, nb),
         _ => find_split_in::<MAX_BINS>(prims, bounds, centroids, params, nb),
     }
+}
+
+/// The bins per axis of a node of `n` primitives.
+pub(super) fn bin_count(n: usize, params: &BuildParams) -> usize {
+    params.bins.min(n.next_power_of_two().max(4)).clamp(2, MAX_BINS)
 }
 
 /// [`find_split`] with `nb <= N` bins per axis.
@@ -354,9 +425,52 @@ fn find_split_in<const N: usize>(
     // kept in three scalars updated by selects: an `Option` compared per candidate lived on
     // the stack and branched, a fifth of the build's time.
     let (mut best_weight, mut best_axis, mut best_bin) = (f32::INFINITY, 0, 0);
+    sweep(&bins, extent, nb, params.block_size, |plane| {
+        // A plane with nothing on one side is no split.
+        let better = plane.left != 0 && plane.right != 0 && plane.weight < best_weight;
+        best_weight = if better { plane.weight } else { best_weight };
+        best_axis = if better { plane.axis } else { best_axis };
+        best_bin = if better { plane.bin } else { best_bin };
+    });
+    (best_weight < f32::INFINITY).then(|| Split {
+        axis: best_axis,
+        bin: best_bin,
+        lo: centroids.min[best_axis],
+        scale: scale[best_axis],
+        cost: sah_cost(best_weight, parent_area, params),
+    })
+}
+
+/// The SAH cost of a split whose area-weighted block count is `weight`, under a parent of
+/// half-area `parent_area`.
+#[inline(always)]
+pub(super) fn sah_cost(weight: f32, parent_area: f32, params: &BuildParams) -> f32 {
+    params.traversal_cost + params.intersection_cost * weight / parent_area
+}
+
+/// One plane of the SAH sweep, between bins `bin - 1` and `bin` of `axis`.
+#[derive(Clone, Copy)]
+pub(super) struct SweptPlane {
+    pub(super) axis: usize,
+    pub(super) bin: usize,
+    /// Area-weighted block counts: `A_left blocks_left + A_right blocks_right`.
+    pub(super) weight: f32,
+    pub(super) left: u32,
+    pub(super) right: u32,
+}
+
+/// Every plane between the first `nb` bins of each axis with extent, in axis then bin order,
+/// handed to `visit`: the builder's one SAH sweep, which [`super::split_candidates`] also runs.
+#[inline(always)]
+pub(super) fn sweep<const N: usize>(
+    bins: &Bins<N>,
+    extent: Vec3A,
+    nb: usize,
+    bs: usize,
+    mut visit: impl FnMut(SweptPlane),
+) {
     let mut right_area = [0.0f32; N];
     let mut right_count = [0u32; N];
-    let bs = params.block_size;
     for (axis, bins) in bins.iter().enumerate() {
         if extent[axis] <= 0.0 {
             continue;
@@ -374,20 +488,9 @@ fn find_split_in<const N: usize>(
             acc = acc.union(bins[i - 1].bounds);
             cnt += bins[i - 1].count;
             let weight = acc.half_area() * blocks(cnt, bs) as f32 + right_area[i] * blocks(right_count[i], bs) as f32;
-            // A plane with nothing on one side is no split.
-            let better = cnt != 0 && right_count[i] != 0 && weight < best_weight;
-            best_weight = if better { weight } else { best_weight };
-            best_axis = if better { axis } else { best_axis };
-            best_bin = if better { i } else { best_bin };
+            visit(SweptPlane { axis, bin: i, weight, left: cnt, right: right_count[i] });
         }
     }
-    (best_weight < f32::INFINITY).then(|| Split {
-        axis: best_axis,
-        bin: best_bin,
-        lo: centroids.min[best_axis],
-        scale: scale[best_axis],
-        cost: params.traversal_cost + params.intersection_cost * best_weight / parent_area,
-    })
 }
 
 /// Put the primitives left of split `s` first; returns their number.
@@ -396,7 +499,12 @@ fn partition(prims: &mut [BuildPrim], s: &Split) -> usize {
     // `trunc(min(rel, bins - 1)) < s.bin` exactly when `rel < s.bin` (the split axis has
     // extent, so `rel` is never NaN).
     let plane = s.bin as f32;
-    let goes_left = |p: &BuildPrim| (p.center[s.axis] - s.lo) * s.scale < plane;
+    partition_by(prims, |p: &BuildPrim| (p.center[s.axis] - s.lo) * s.scale < plane)
+}
+
+/// Put the primitives that `goes_left` first; returns their number.
+#[inline(always)]
+fn partition_by(prims: &mut [BuildPrim], goes_left: impl Fn(&BuildPrim) -> bool) -> usize {
     // Lomuto's scheme without a branch on the side: every primitive is swapped with the
     // first one of the right part, which grows or not by the comparison. Primitives arrive
     // in file order, where the side is a coin toss: Hoare's scheme, which branches on it,

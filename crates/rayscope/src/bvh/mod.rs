@@ -1,5 +1,6 @@
 //! Bounding volume hierarchies. The binary BVH, in one flat array: its node layout
-//! ([`node`]), binned-SAH build ([`build`]), closest-hit and any-hit traversal
+//! ([`node`]), binned-SAH build ([`build`]; [`split_candidates`] shows a node's SAH planes and
+//! costs), closest-hit and any-hit traversal
 //! ([`traverse`]), invariant checks ([`validate`]) and statistics ([`stats`]). It serves the
 //! debugger's level view, and the wide trees that rendering traverses are collapsed from it
 //! ([`wide`]: the collapse, the layouts, the width chosen for the CPU, the SIMD kernels, the
@@ -11,13 +12,15 @@
 
 pub mod build;
 pub mod node;
+pub mod split_candidates;
 pub mod stats;
 pub mod traverse;
 pub mod validate;
 pub mod wide;
 
-pub use build::BuildParams;
+pub use build::{BuildParams, SplitRule};
 pub use node::BvhNode;
+pub use split_candidates::{Candidate, ChosenSplit, SplitCandidates, split_candidates};
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, QueryKind, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
 pub use wide::{

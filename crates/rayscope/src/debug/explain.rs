@@ -26,6 +26,7 @@ use serde::Serialize;
 use crate::debug::pixel::{PixelTrace, SampleTrace};
 use crate::math::Color;
 use crate::record::{LightTerm, RayKind, RecordedRay, StoppedBranch};
+use crate::settings::ShadingModel;
 
 /// What a term is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -83,7 +84,15 @@ pub struct Term {
     pub light: Option<usize>,
     /// What it is.
     pub kind: TermKind,
-    /// The surface's factor: `kd` (diffuse, unshaded), `ks` (specular), or the background.
+    /// The shading model that made it, for diffuse and specular terms.
+    pub model: Option<ShadingModel>,
+    /// For the gradient model's diffuse term: the (mean) cosine `n.l` at which the gradient
+    /// was read. Its colour is `material`, not multiplied by the cosine again, so the term's
+    /// `lights.factor` is 1 there.
+    pub gradient_cos: Option<f32>,
+    /// The surface's factor: `kd` (diffuse, unshaded), `ks` (specular), or the background;
+    /// for the gradient model's diffuse term, the mean over the shaded points of the
+    /// gradient's colour at their cosine.
     pub material: Color,
     /// The light's factors, for diffuse and specular terms.
     pub lights: Option<LightFactors>,
@@ -231,11 +240,15 @@ fn sample_terms(sample: &SampleTrace, i: usize, ray: &RecordedRay, out: &mut Vec
     let weight = Color::from(ray.weight);
     let opacity = ray.surface.and_then(|s| s.opacity);
     let path_weight = weight * opacity.unwrap_or(1.0);
-    let term = |light, kind, material, lights, value: Color| Term {
+    // One model shades every light point of a hit.
+    let model = ray.light_terms.first().map(|t| t.model);
+    let term = |light, kind, material, lights: Option<LightFactors>, value: Color| Term {
         sample: sample.index,
         ray: i,
         light,
         kind,
+        model: lights.and(model),
+        gradient_cos: None,
         material,
         lights,
         value,
@@ -275,10 +288,20 @@ fn sample_terms(sample: &SampleTrace, i: usize, ray: &RecordedRay, out: &mut Vec
         };
         // The renderer sums a light's points in order, then divides by their count.
         let sum = |f: &dyn Fn(&LightTerm) -> Color| points.iter().map(|t| f(t)).sum::<Color>() / n.max(1) as f32;
-        let kd = points.first().map_or(Color::ZERO, |t| t.kd);
-        let diffuse = factors(&|t| t.cos);
-        out.push(term(Some(light), TermKind::Diffuse, kd, Some(diffuse), sum(&|t| t.diffuse)));
-        if surface.ks != Color::ZERO && shaded > 0 {
+        let diffuse = if model == Some(ShadingModel::Gradient) {
+            // The gradient's colour changes with each point's cosine: its mean, and the
+            // cosine's apart (the colour is not multiplied by it).
+            let at = factors(&|t| t.cos).factor;
+            let mut t =
+                term(Some(light), TermKind::Diffuse, mean(&|t| t.kd), Some(factors(&|_| 1.0)), sum(&|t| t.diffuse));
+            t.gradient_cos = Some(at);
+            t
+        } else {
+            let kd = points.first().map_or(Color::ZERO, |t| t.kd);
+            term(Some(light), TermKind::Diffuse, kd, Some(factors(&|t| t.cos)), sum(&|t| t.diffuse))
+        };
+        out.push(diffuse);
+        if surface.ks != Color::ZERO && shaded > 0 && model.is_none_or(ShadingModel::has_highlight) {
             let specular = factors(&|t| t.highlight);
             out.push(term(Some(light), TermKind::Specular, surface.ks, Some(specular), sum(&|t| t.specular)));
         }
@@ -319,12 +342,22 @@ impl Term {
                 format!("no light: all {} behind the surface", l.points)
             }
             (TermKind::Diffuse | TermKind::Specular, Some(l)) => {
-                let (m, f) = if self.kind == TermKind::Diffuse { ("kd", "cos") } else { ("ks", "highlight") };
                 let mean = if l.shaded > 1 { "mean " } else { "" };
+                let model = self.model.map_or(String::new(), |m| format!("{}: ", m.name()));
+                let surface = match (self.kind, self.model) {
+                    (TermKind::Diffuse, Some(ShadingModel::Gradient)) => format!(
+                        "{mean}gradient {} at {mean}cos {}",
+                        rgb(self.material),
+                        num(self.gradient_cos.unwrap_or(f32::NAN))
+                    ),
+                    (TermKind::Diffuse, _) => format!("kd {} x {mean}cos {}", rgb(self.material), num(l.factor)),
+                    (_, Some(ShadingModel::BlinnPhong)) => {
+                        format!("ks {} x {mean}highlight (n.h)^s {}", rgb(self.material), num(l.factor))
+                    }
+                    _ => format!("ks {} x {mean}highlight (r.v)^s {}", rgb(self.material), num(l.factor)),
+                };
                 let mut s = format!(
-                    "{m} {} x {mean}{f} {} x {mean}light {} x shadow {}/{}",
-                    rgb(self.material),
-                    num(l.factor),
+                    "{model}{surface} x {mean}light {} x shadow {}/{}",
                     rgb(l.light_color),
                     l.reached,
                     l.points

@@ -5,9 +5,11 @@
 
 use crate::camera::CameraDesc;
 use crate::error::{Error, Result};
+use crate::gradient::GradientKey;
 use crate::light::Light;
 use crate::material::MaterialDesc;
 use crate::math::{Vec2, Vec3};
+use crate::settings::ShadingModel;
 
 use super::desc::{MeshDesc, MotionDesc, SceneDesc, SphereDesc};
 use crate::motion::{Interpolation, Keyframe};
@@ -59,6 +61,11 @@ pub const BUILTINS: &[BuiltinInfo] = &[
     BuiltinInfo {
         name: "cornell-box-motion",
         description: "Cornell box, a sphere on a keyframed Catmull-Rom loop (motion blur with --spp)",
+        needs_assets: false,
+    },
+    BuiltinInfo {
+        name: "shading-models",
+        description: "four spheres: phong, blinn-phong / lambert, gradient (toon), point light (2, 2.5, -3)",
         needs_assets: false,
     },
     BuiltinInfo { name: "monkey", description: "Suzanne (monkey-rotated.obj), two point lights", needs_assets: true },
@@ -150,6 +157,7 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
             )
         }
         "cornell-box-motion" => scene(name, vec![cornell_box()], vec![path_sphere()], vec![point(0.0, 0.58, 0.0)]),
+        "shading-models" => shading_models(name),
         "monkey" => {
             scene(name, vec![asset("monkey-rotated.obj")], vec![], vec![point(-1.0, 1.0, -1.0), point(1.0, -1.0, -1.0)])
         }
@@ -187,6 +195,46 @@ fn path_sphere() -> SphereDesc {
     }
 }
 
+/// The four shading models side by side: one material but for its `model`, the gradient's a
+/// three-band toon ramp in the material's hue.
+fn shading_models(name: &str) -> SceneDesc {
+    let l = |x, y, z| Vec3::new(x, y, z);
+    let key = |at, color| GradientKey { at, color };
+    let toon = vec![
+        key(0.0, l(0.12, 0.04, 0.03)),
+        key(0.3, l(0.12, 0.04, 0.03)),
+        key(0.3, l(0.45, 0.17, 0.11)),
+        key(0.7, l(0.45, 0.17, 0.11)),
+        key(0.7, l(0.8, 0.3, 0.2)),
+        key(1.0, l(0.8, 0.3, 0.2)),
+    ];
+    let models = [
+        // The camera looks along +z, screen right is world -x.
+        (ShadingModel::Phong, l(0.45, 0.45, 0.0), None),
+        (ShadingModel::BlinnPhong, l(-0.45, 0.45, 0.0), None),
+        (ShadingModel::Lambert, l(0.45, -0.45, 0.0), None),
+        (ShadingModel::Gradient, l(-0.45, -0.45, 0.0), Some(toon)),
+    ];
+    let spheres = models
+        .into_iter()
+        .map(|(model, center, gradient)| SphereDesc {
+            center,
+            radius: 0.36,
+            material: MaterialDesc {
+                name: Some(model.name().into()),
+                model: Some(model),
+                gradient,
+                ..material("", l(0.8, 0.3, 0.2), Vec3::splat(0.3), 40.0, 1.0)
+            },
+            motion: None,
+        })
+        .collect();
+    SceneDesc {
+        camera: CameraDesc::LookAt { eye: l(0.0, 0.0, -5.0), target: Vec3::ZERO, up: Vec3::Y, fov: 24.0 },
+        ..scene(name, vec![], spheres, vec![Light::Point { position: l(2.0, 2.5, -3.0), color: Vec3::ONE }])
+    }
+}
+
 fn material(name: &str, kd: Vec3, ks: Vec3, shininess: f32, transparency: f32) -> MaterialDesc {
     MaterialDesc {
         name: Some(name.into()),
@@ -194,8 +242,7 @@ fn material(name: &str, kd: Vec3, ks: Vec3, shininess: f32, transparency: f32) -
         ks: Some(ks),
         shininess: Some(shininess),
         transparency: Some(transparency),
-        texture: None,
-        glossiness: None,
+        ..MaterialDesc::default()
     }
 }
 

@@ -16,6 +16,8 @@
 //! center = [0, 0, 0]
 //! radius = 0.5
 //! material = { kd = [0.2, 0.2, 0.8], ks = [0.5, 0.5, 0.5], shininess = 50 }
+//! # model = "blinn-phong" | "lambert" | "gradient" (default: [render] shading_model, phong);
+//! # the gradient model's colours by n.l: gradient = [[0.0, [0.1, 0.1, 0.3]], [0.5, [0.2, 0.2, 0.8]]]
 //!
 //! [[light]]
 //! kind = "point"
@@ -34,6 +36,7 @@ use serde::{Deserialize, Serialize};
 use super::{Mesh, Scene, SceneSphere};
 use crate::camera::CameraDesc;
 use crate::error::{Error, Result};
+use crate::gradient::Gradient;
 use crate::io::mesh_file::{MeshFile, MeshFormat, load_mesh_file};
 use crate::io::obj::{ObjFile, smooth_normals};
 use crate::io::texture::load_texture;
@@ -342,6 +345,11 @@ fn apply_override(m: &mut Material, o: &MaterialDesc, textures: &mut TextureCach
     m.shininess = o.shininess.unwrap_or(m.shininess);
     m.transparency = o.transparency.unwrap_or(m.transparency);
     m.glossiness = o.glossiness.or(m.glossiness);
+    m.model = o.model.or(m.model);
+    if let Some(keys) = &o.gradient {
+        m.gradient =
+            Some(Gradient::new(keys.clone()).map_err(|e| Error::Invalid(format!("material '{}': {e}", m.name)))?);
+    }
     if let Some(t) = &o.texture {
         m.texture = Some(textures.get(&base.join(t))?);
     }
@@ -668,7 +676,7 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
         for (key, d) in
             [("material", m.material.as_ref())].into_iter().chain(m.materials.iter().map(|d| ("materials", Some(d))))
         {
-            d.map_or(Ok(()), check_material).or_else(|msg| at(key, msg))?;
+            d.map_or(Ok(()), check_material).or_else(|msg| at(key, &msg))?;
         }
         if let Some(t) = &m.transform {
             check_transform(t).or_else(|msg| at("transform", msg))?;
@@ -683,7 +691,7 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
         if !(s.radius.is_finite() && s.radius > 0.0) {
             at("radius", "the radius must be positive and finite")?;
         }
-        check_material(&s.material).or_else(|msg| at("material", msg))?;
+        check_material(&s.material).or_else(|msg| at("material", &msg))?;
         check_motion(s.motion.as_ref()).or_else(|msg| at("motion", &msg))?;
     }
     for (i, l) in desc.lights.iter().enumerate() {
@@ -733,19 +741,22 @@ fn check_camera(c: &CameraDesc) -> Result<(), BadKey> {
 
 /// A material's values: colours finite and not negative, a finite shininess of at least 0,
 /// transparency in [0, 1], and a glossiness of at least 0 (`inf` is a perfect mirror).
-fn check_material(m: &MaterialDesc) -> Result<(), &'static str> {
+fn check_material(m: &MaterialDesc) -> Result<(), String> {
     let colour = |c: Option<Vec3>| c.is_none_or(|c| c.is_finite() && c.min_element() >= 0.0);
     if !(colour(m.kd) && colour(m.ks)) {
-        return Err("colours (kd, ks) must be finite and not negative");
+        return Err("colours (kd, ks) must be finite and not negative".into());
     }
     if !m.shininess.is_none_or(|s| s.is_finite() && s >= 0.0) {
-        return Err("shininess must be finite and at least 0");
+        return Err("shininess must be finite and at least 0".into());
     }
     if !m.transparency.is_none_or(|t| (0.0..=1.0).contains(&t)) {
-        return Err("transparency must be in [0, 1]");
+        return Err("transparency must be in [0, 1]".into());
     }
     if !m.glossiness.is_none_or(|g| g >= 0.0) {
-        return Err("glossiness must be at least 0 (inf: a perfect mirror)");
+        return Err("glossiness must be at least 0 (inf: a perfect mirror)".into());
+    }
+    if let Some(keys) = &m.gradient {
+        Gradient::new(keys.clone())?;
     }
     Ok(())
 }

@@ -111,6 +111,12 @@ impl Primitives for Geometry {
 impl Geometry {
     /// Build over every triangle of `meshes` and every sphere, in global primitive order.
     pub fn build(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef]) -> Geometry {
+        Geometry::build_with(meshes, spheres, prims, &BuildParams::default())
+    }
+
+    /// [`Geometry::build`] with these BVH build parameters (another split rule, for
+    /// comparisons).
+    pub fn build_with(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef], params: &BuildParams) -> Geometry {
         let moves = |m: &Option<MotionPath>| m.as_ref().is_some_and(|m| !m.is_still());
         let mut geometry = Geometry::default();
         let slot_info = |i: u32| {
@@ -122,7 +128,7 @@ impl Geometry {
             let shapes = all_shapes(meshes, spheres, prims, &mut geometry.moving, &mut geometry.paths);
             let g = &geometry;
             let bounds = map(&shapes, |s| g.shape_bounds(s));
-            geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
+            geometry.bvh = Bvh::build(&bounds, params);
             geometry.shapes = map(&geometry.bvh.prim_indices, |&i| shapes[i as usize]);
             geometry.slots = map(&geometry.bvh.prim_indices, |&i| slot_info(i));
         } else {
@@ -131,7 +137,7 @@ impl Geometry {
             // order and a reordering pass were a third of the build on two cores).
             let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
             let bounds = map(prims, |p| shape(p).bounds());
-            geometry.bvh = Bvh::build(&bounds, &BuildParams::default());
+            geometry.bvh = Bvh::build(&bounds, params);
             let order = &geometry.bvh.prim_indices;
             let both = |&i: &u32| (shape(&prims[i as usize]), slot_info(i));
             (geometry.shapes, geometry.slots) = if order.len() > PARALLEL_PASS {
@@ -184,6 +190,17 @@ impl Geometry {
             }
             s => s.bounds(),
         }
+    }
+
+    /// The boxes the BVH was built over, in global primitive order (empty for a primitive left
+    /// out of the tree): what [`crate::bvh::split_candidates`] needs to replay its build.
+    pub fn build_bounds(&self) -> Vec<Aabb> {
+        let order = &self.bvh.prim_indices;
+        let mut bounds = vec![Aabb::EMPTY; order.iter().map(|&i| i as usize + 1).max().unwrap_or(0)];
+        for (shape, &i) in self.shapes.iter().zip(order) {
+            bounds[i as usize] = self.shape_bounds(shape);
+        }
+        bounds
     }
 
     /// Closest hit, with its global primitive id (through the wide BVH). Kept out of line:
