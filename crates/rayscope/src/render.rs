@@ -162,7 +162,8 @@ fn sample_range(first: u32, pass: SamplePass) -> u32 {
 
 /// The camera ray of pixel `(x, y)` for the sample whose random numbers are `sampler`
 /// (`still`: a still camera's ray generator, made once per pass; a moving camera's is made
-/// per sample), through the thin lens at `lens` (its point in `[0,1]^2`) when there is one.
+/// per sample), made by `through` from the pose's generator, the pixel and the jitter (a
+/// pinhole's ray, or a lens's: generic, so the pinhole's code has no lens in it).
 fn camera_ray(
     settings: &RenderSettings,
     camera: &CameraMotion,
@@ -170,21 +171,13 @@ fn camera_ray(
     x: u32,
     y: u32,
     sampler: &PixelSampler,
-    lens: Option<(ThinLens, Vec2)>,
+    through: impl Fn(&RayGenerator, u32, u32, Vec2) -> Ray,
 ) -> Ray {
     let jitter = Vec2::splat(0.5) + settings.filter.warp(sampler.pixel_offset);
     let time = sampler.time;
-    let moved;
-    let rays = match still {
-        Some(rays) => rays,
-        None => {
-            moved = RayGenerator::new(&camera.at(time), settings.width, settings.height);
-            &moved
-        }
-    };
-    let mut ray = match lens {
-        None => rays.ray(x, y, jitter),
-        Some((lens, u)) => lens.ray(rays, x, y, jitter, u),
+    let mut ray = match still {
+        Some(rays) => through(rays, x, y, jitter),
+        None => through(&RayGenerator::new(&camera.at(time), settings.width, settings.height), x, y, jitter),
     };
     ray.time = time;
     ray
@@ -254,7 +247,7 @@ impl<'a> Pass<'a> {
     fn camera_run(&self, x: u32, y: u32, k: u32) -> (Vec<Ray>, usize) {
         let x0 = x - x % PACKET as u32;
         let x1 = (x0 + PACKET as u32).min(self.integrator.settings.width);
-        let rays = (x0..x1).map(|xi| self.camera_ray(xi, y, k, &self.sampler(xi, y, k))).collect();
+        let rays = (x0..x1).map(|xi| self.pinhole_ray(xi, y, &self.sampler(xi, y, k))).collect();
         (rays, (x - x0) as usize)
     }
 
@@ -264,14 +257,27 @@ impl<'a> Pass<'a> {
         PixelSampler::new(self.pass.seed, y * self.integrator.settings.width + x, k, self.pass.planned)
     }
 
-    /// The camera ray of sample `k` of pixel `(x, y)`, whose other numbers `sampler` draws.
+    /// The camera ray of sample `k` of pixel `(x, y)`, whose other numbers `sampler` draws:
+    /// through the lens if there is one.
     #[inline]
     fn camera_ray(&self, x: u32, y: u32, k: u32, sampler: &PixelSampler) -> Ray {
-        let lens = self.lens.map(|lens| {
-            let pixel = y * self.integrator.settings.width + x;
-            (lens, PixelSampler::lens_offset(self.pass.seed, pixel, k, self.pass.planned))
-        });
-        camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, lens)
+        match self.lens {
+            None => self.pinhole_ray(x, y, sampler),
+            Some(lens) => {
+                let pixel = y * self.integrator.settings.width + x;
+                let u = PixelSampler::lens_offset(self.pass.seed, pixel, k, self.pass.planned);
+                camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, |g, x, y, j| {
+                    lens.ray(g, x, y, j, u)
+                })
+            }
+        }
+    }
+
+    /// The pinhole's camera ray of pixel `(x, y)` for the sample `sampler` draws (the packets'
+    /// rays: [`Pass::packets`] holds only without a lens).
+    #[inline]
+    fn pinhole_ray(&self, x: u32, y: u32, sampler: &PixelSampler) -> Ray {
+        camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, RayGenerator::ray)
     }
 
     /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
@@ -289,7 +295,7 @@ impl<'a> Pass<'a> {
             // Two arrays built in place: an array of (sampler, ray) pairs split into them cost
             // a `memcpy` per packet.
             let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
-            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.camera_ray(x(i), y, k, &samplers[i]));
+            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let mut rec = NoRecorder;
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {
