@@ -9,8 +9,10 @@ use common::inline_scene;
 use rayscope::camera::{Camera, CameraDesc, CameraMotion};
 use rayscope::debug::{SampleChoice, trace_pixel_samples};
 use rayscope::material::MaterialDesc;
+use rayscope::math::Color;
 use rayscope::math::{Vec3, Vec3A};
-use rayscope::render::render;
+use rayscope::record::NoRecorder;
+use rayscope::render::{render, trace_pixel};
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
 use rayscope::settings::RenderSettings;
 
@@ -105,6 +107,31 @@ fn recorded_lens_rays_converge_on_the_focal_plane() {
         origins.push(lo);
     }
     assert!(origins.windows(2).any(|w| w[0] != w[1]), "the lens samples spread over the lens");
+}
+
+#[test]
+fn a_lens_render_equals_the_debuggers_replay_on_any_thread_count() {
+    let scene = load(&builtin::scene_desc("cornell-box").unwrap());
+    // 37 columns: runs of 8 pixels and a shorter one; 4 samples: the lens's 2 x 2 grid; 3: its
+    // shuffled (0,2)-sequence.
+    for spp in [4, 3] {
+        let s = RenderSettings { width: 37, height: 23, spp, aperture: 0.08, ..RenderSettings::default() };
+        let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+        let one = pool(1).install(|| render(&scene, &s, &|_| {}));
+        let two = pool(2).install(|| render(&scene, &s, &|_| {}));
+        assert_eq!(one.film.pixels(), two.film.pixels(), "{spp} spp");
+        let camera = scene.camera_motion();
+        let (sums, _) = one.film.raw();
+        for y in 0..s.height {
+            for x in 0..s.width {
+                let mut sum = Color::ZERO;
+                for k in 0..s.spp {
+                    sum += trace_pixel(&scene, &s, &camera, x, y, k, &mut NoRecorder);
+                }
+                assert_eq!(sums[(y * s.width + x) as usize], sum, "pixel ({x}, {y}), {spp} spp");
+            }
+        }
+    }
 }
 
 /// Pixels of row `y` whose value is strictly between black and white: the width of the
