@@ -20,9 +20,14 @@ pub struct RowSpec {
     pub scene: &'static str,
     /// Settings on top of the defaults (800x800).
     pub settings: fn(RenderSettings) -> RenderSettings,
-    /// The course report's figure, in ms, on its students' hardware.
+    /// The course report's figure, in ms, on its students' hardware ([`NOT_IN_REPORT`] for
+    /// rows the report did not measure).
     pub report_ms: f64,
 }
+
+/// [`RowSpec::report_ms`] of a row the course report did not measure (a later feature's cost):
+/// shown as `–`, and `null` in JSON.
+pub const NOT_IN_REPORT: f64 = f64::NAN;
 
 /// The rows of the course report's table, in its order.
 pub const ROWS: &[RowSpec] = &[
@@ -62,8 +67,10 @@ pub const ROWS: &[RowSpec] = &[
         settings: |s| RenderSettings { light_samples: 50, gloss_samples: 50, ..s },
         report_ms: 6300.0,
     },
-    // Motion along paths (not in the course's table): the Cornell box at 16 samples, and the
-    // same with a sphere moving on a keyframed Catmull-Rom loop, blurred over the shutter.
+    // Not in the course's table: the Cornell box at 16 samples, then the same with a sphere
+    // moving on a keyframed Catmull-Rom loop (blurred over the shutter), and through a thin
+    // lens (depth of field: camera rays no longer share an origin, so they are traced one by
+    // one instead of in packets).
     RowSpec {
         label: "Cornell box, 16 spp",
         scene: "cornell-box",
@@ -74,6 +81,12 @@ pub const ROWS: &[RowSpec] = &[
         label: "  + a sphere on a keyframed path (motion blur)",
         scene: "cornell-box-motion",
         settings: |s| RenderSettings { spp: 16, ..s },
+        report_ms: NOT_IN_REPORT,
+    },
+    RowSpec {
+        label: "  + depth of field (aperture 0.05)",
+        scene: "cornell-box",
+        settings: |s| RenderSettings { spp: 16, aperture: 0.05, ..s },
         report_ms: NOT_IN_REPORT,
     },
 ];

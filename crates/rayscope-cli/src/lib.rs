@@ -246,6 +246,12 @@ struct SettingsArgs {
     /// Seed of the random numbers [default: 0].
     #[arg(long)]
     seed: Option<u64>,
+    /// Lens radius in scene units, for depth of field; 0 is a pinhole [default: 0].
+    #[arg(long, value_name = "R", value_parser = parse_aperture, allow_negative_numbers = true)]
+    aperture: Option<f32>,
+    /// Depth in focus along the view axis, with --aperture [default: the look-at distance].
+    #[arg(long, value_name = "D", value_parser = parse_focus_distance, allow_negative_numbers = true)]
+    focus_distance: Option<f32>,
     /// The camera's pose when the shutter closes (motion blur): trackball rotation in degrees,
     /// optionally followed by a distance: `RX,RY,RZ[,DIST]`.
     #[arg(long, value_name = "RX,RY,RZ[,DIST]", value_parser = parse_camera_end)]
@@ -279,6 +285,22 @@ enum ColorRaysBy {
 struct CameraEnd {
     rotation: Vec3,
     distance: Option<f32>,
+}
+
+/// A lens radius: finite, 0 or more (clap names the flag in its error).
+fn parse_aperture(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(r) if r.is_finite() && r >= 0.0 => Ok(r),
+        _ => Err(format!("'{s}' is not a lens radius (a finite number, 0 or more)")),
+    }
+}
+
+/// A focus distance: finite and above 0.
+fn parse_focus_distance(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(d) if d.is_finite() && d > 0.0 => Ok(d),
+        _ => Err(format!("'{s}' is not a focus distance (a finite number above 0)")),
+    }
 }
 
 fn parse_camera_end(s: &str) -> Result<CameraEnd, String> {
@@ -491,6 +513,8 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.seed = f.seed.unwrap_or(s.seed);
     s.filter = f.filter.unwrap_or(s.filter);
     s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
+    s.aperture = f.aperture.unwrap_or(s.aperture);
+    s.focus_distance = f.focus_distance.or(s.focus_distance);
     s.validate()?;
     let mut scene = scene;
     if let Some(i) = f.interpolation {

@@ -463,7 +463,8 @@ fn bench_quick_has_every_row() {
     let table = String::from_utf8_lossy(&o.stdout);
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
     let rows = v["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), 13, "the course report's eleven rows and motion's two");
+    assert_eq!(rows.len(), 14, "the course report's eleven rows, and motion's and depth of field's three");
+    assert_eq!(rows.iter().filter(|r| r["report_ms"].is_f64()).count(), 11, "the course report's eleven rows");
     assert!(v["machine"]["cpu"].is_string());
     for r in rows {
         let name = r["scene"].as_str().unwrap();
@@ -673,4 +674,31 @@ fn debug_records_the_traversal_and_exports_a_bvh_level() {
     fails_with(d, &["debug", "--pixel", "1,1", "--export-bvh-level", "99", "x.obj"], &["level 99 does not exist"]);
     fails_with(d, &["debug", "--pixel", "1,1", "--export-bvh-level", "two", "x.obj"], &["'two' is not a level"]);
     assert!(!d.join("x.obj").exists());
+}
+
+#[test]
+fn lens_flags_and_keys_are_checked_and_exported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fails_with(d, &["render", "-o", "o.png", "--aperture", "-0.1"], &["--aperture", "lens radius"]);
+    fails_with(d, &["render", "-o", "o.png", "--aperture", "NaN"], &["--aperture"]);
+    fails_with(d, &["render", "-o", "o.png", "--focus-distance", "0"], &["--focus-distance", "above 0"]);
+    fails_with(d, &["render", "-o", "o.png", "--focus-distance", "-3"], &["--focus-distance"]);
+    std::fs::write(d.join("bad.toml"), "[render]\naperture = -1.0\n").unwrap();
+    fails_with(d, &["render", "bad.toml", "-o", "o.png"], &["bad.toml", "aperture -1"]);
+    std::fs::write(d.join("far.toml"), "[render]\nfocus_distance = -2.0\n").unwrap();
+    fails_with(d, &["render", "far.toml", "-o", "o.png"], &["far.toml", "focus distance -2"]);
+    // A scene file's lens renders, and so do the flags'.
+    std::fs::write(
+        d.join("dof.toml"),
+        "[render]\nwidth = 16\nheight = 16\nspp = 4\naperture = 0.1\nfocus_distance = 2.5\n",
+    )
+    .unwrap();
+    let o = rayscope(d, &["render", "dof.toml", "-o", "dof.png"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = rayscope(
+        d,
+        &["render", "-o", "flag.png", "--aperture", "0.1", "--spp", "4", "--width", "16", "--height", "16"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
 }

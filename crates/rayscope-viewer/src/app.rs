@@ -427,6 +427,7 @@ impl RayscopeApp {
                     }
                 },
             );
+            crate::lens::lens_panel(ui, &mut s, st.trackball.distance);
         });
         st.set_settings(s);
         egui::CollapsingHeader::new("Camera").default_open(true).show(ui, |ui| {
@@ -437,7 +438,7 @@ impl RayscopeApp {
             ));
             ui.label(
                 "Drag: orbit · right/shift-drag: pan · wheel: zoom · click: debug a pixel · Ctrl-drag (or the \
-                 rectangle tool): debug a rectangle of pixels",
+                 rectangle tool): debug a rectangle of pixels · Alt-click: focus the lens there",
             );
             if ui.button("Reset camera").on_hover_text("Back to the scene's camera").clicked() {
                 st.reset_camera();
@@ -706,11 +707,16 @@ impl RayscopeApp {
         self.mark_selection(&painter, rect);
         // Mouse: click debugs a pixel; Ctrl-drag (or any drag with the rectangle tool) selects
         // a rectangle; drag orbits; right or shift drag pans; wheel zooms.
-        let (shift, ctrl) = ui.input(|i| (i.modifiers.shift, i.modifiers.command || i.modifiers.ctrl));
+        let (shift, ctrl, alt) =
+            ui.input(|i| (i.modifiers.shift, i.modifiers.command || i.modifiers.ctrl, i.modifiers.alt));
         if response.clicked()
             && let Some(p) = response.interact_pointer_pos().and_then(|pos| self.state.pixel_at(pos, rect))
         {
-            self.state.click_pixel(p.0, p.1);
+            if alt {
+                self.status = crate::lens::focus_at(&mut self.state, p.0, p.1);
+            } else {
+                self.state.click_pixel(p.0, p.1);
+            }
         }
         if response.drag_started_by(PointerButton::Primary) && (ctrl || self.state.rect_tool) {
             self.rect_drag = ui.input(|i| i.pointer.press_origin()).filter(|p| rect.contains(*p));

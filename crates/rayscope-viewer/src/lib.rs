@@ -9,6 +9,7 @@ pub mod app;
 pub mod compare;
 pub mod files;
 pub mod heat;
+pub mod lens;
 pub mod motion;
 pub mod overlay;
 pub mod plural;

@@ -114,6 +114,8 @@ pub struct Selection {
     pub clamped: Option<String>,
     /// Distinguishes this selection from every other one (for [`OverlayKey`]).
     pub id: u64,
+    /// The camera its pixels were traced through (the focal plane is drawn for it).
+    pub camera: rayscope::camera::Camera,
 }
 
 impl Selection {
@@ -175,6 +177,7 @@ pub struct OverlayKey {
     highlight: Option<Highlight>,
     selection: Option<u64>,
     show_paths: bool,
+    focal_plane: Option<crate::lens::FocalKey>,
 }
 
 /// Everything the viewer shows and edits.
@@ -336,6 +339,12 @@ impl ViewerState {
         }
     }
 
+    /// The camera whose focal plane the overlay draws: the selection's (its lens rays
+    /// converge there), else the trackball's.
+    pub fn focal_camera(&self) -> rayscope::camera::Camera {
+        self.selection.as_ref().map_or_else(|| self.trackball.camera(), |s| s.camera)
+    }
+
     /// The camera the ray tracer uses: the trackball's, standing still.
     pub fn camera(&self) -> CameraMotion {
         CameraMotion::still(self.trackball.camera())
@@ -421,7 +430,7 @@ impl ViewerState {
         let pixels = kept.pixels().map(|(x, y)| self.debug_pixel(x, y)).collect();
         static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let id = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        self.selection = Some(Selection { pixels, clamped, id });
+        self.selection = Some(Selection { pixels, clamped, id, camera: self.trackball.camera() });
         self.highlight = None;
     }
 
@@ -492,6 +501,7 @@ impl ViewerState {
             highlight: self.highlight,
             selection: self.selection.as_ref().map(|s| s.id),
             show_paths: self.show_paths,
+            focal_plane: crate::lens::FocalKey::new(&self.settings, &self.focal_camera()),
         }
     }
 
@@ -545,6 +555,7 @@ impl ViewerState {
         if let Some(h) = self.highlight {
             self.highlight_lines(&mut out, h, r);
         }
+        crate::lens::focal_plane_lines(&mut out, &self.focal_camera(), &self.settings);
         out.0
     }
 

@@ -144,6 +144,9 @@ pub struct Camera {
     pub rotation: Quat,
     /// Vertical field of view in degrees.
     pub fov_y: f32,
+    /// Distance along the view axis to the point looked at: where a thin lens focuses unless
+    /// told otherwise ([`crate::lens::ThinLens`]).
+    pub look_distance: f32,
 }
 
 impl Camera {
@@ -156,6 +159,7 @@ impl Camera {
                     position: Vec3A::from(look_at + rotation * Vec3::new(0.0, 0.0, -distance)),
                     rotation,
                     fov_y: fov,
+                    look_distance: distance,
                 }
             }
             CameraDesc::LookAt { eye, target, up, fov } => {
@@ -164,7 +168,7 @@ impl Camera {
                 let left = up.cross(forward).try_normalize().unwrap_or_else(|| forward.any_orthonormal_vector());
                 let cam_up = forward.cross(left);
                 let rotation = Quat::from_mat3(&Mat3::from_cols(left, cam_up, forward)).normalize();
-                Camera { position: Vec3A::from(eye), rotation, fov_y: fov }
+                Camera { position: Vec3A::from(eye), rotation, fov_y: fov, look_distance: (target - eye).length() }
             }
         }
     }
@@ -205,11 +209,11 @@ impl Camera {
 /// a tenth of a simple scene's render time).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayGenerator {
-    origin: Vec3A,
+    pub(crate) origin: Vec3A,
     /// World direction of screen `x = 1` minus the forward axis.
-    right: Vec3A,
+    pub(crate) right: Vec3A,
     /// World direction of screen `y = 1` minus the forward axis.
-    up: Vec3A,
+    pub(crate) up: Vec3A,
     forward: Vec3A,
     /// `2 / width` and `2 / height`.
     scale: Vec2,
@@ -235,9 +239,16 @@ impl RayGenerator {
     /// (0.5 is the centre): [`Camera::ray`] at [`Camera::ndc`], up to rounding.
     #[inline]
     pub fn ray(&self, px: u32, py: u32, jitter: Vec2) -> Ray {
+        Ray::new(self.origin, self.direction(px, py, jitter).normalize())
+    }
+
+    /// The unnormalised direction of [`RayGenerator::ray`]: its component along the view
+    /// axis is 1, so `origin + t * direction` lies at depth `t` (the thin lens's focal plane).
+    #[inline]
+    pub(crate) fn direction(&self, px: u32, py: u32, jitter: Vec2) -> Vec3A {
         let x = (px as f32 + jitter.x) * self.scale.x - 1.0;
         let y = 1.0 - (py as f32 + jitter.y) * self.scale.y;
-        Ray::new(self.origin, (x * self.right + y * self.up + self.forward).normalize())
+        x * self.right + y * self.up + self.forward
     }
 }
 
@@ -279,6 +290,7 @@ impl CameraMotion {
                 position: self.start.position.lerp(end.position, t),
                 rotation: self.start.rotation.slerp(end.rotation, t),
                 fov_y: self.start.fov_y + (end.fov_y - self.start.fov_y) * t,
+                look_distance: self.start.look_distance + (end.look_distance - self.start.look_distance) * t,
             },
             _ => self.start,
         }

@@ -1,7 +1,8 @@
 //! rayscope: a fast, inspectable Whitted-style CPU ray tracer.
 //!
 //! The library holds everything but the user interfaces. Its surface is small: a [`scene`] is
-//! loaded (from a file, an OBJ or a built-in) and seen through a [`camera`]; [`settings`] say
+//! loaded (from a file, an OBJ or a built-in) and seen through a [`camera`] (a pinhole, or a
+//! thin [`lens`] for depth of field); [`settings`] say
 //! how to render it; [`render`] makes an image into a [`film`] (and traces single pixels for
 //! the debugger, whose rays [`record`] keeps; [`debug`] traces every sample of a pixel and
 //! explains its colour), [`progressive`] accumulates frames, [`aov`] renders per-pixel facts of
@@ -29,6 +30,7 @@ pub mod compare;
 pub mod debug;
 pub mod export;
 pub mod film;
+pub mod lens;
 pub mod motion;
 pub mod output;
 pub mod progressive;

@@ -11,6 +11,7 @@ use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::film::{Film, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
+use crate::lens::ThinLens;
 use crate::math::{Color, Vec2};
 use crate::ray::Ray;
 use crate::record::{NoRecorder, RayKind, RayRecorder};
@@ -79,7 +80,7 @@ pub fn render_pass(
 ) -> (RayCounts, bool) {
     let integrator = Integrator::new(scene, settings);
     let still = camera.is_still().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
-    let setup = Pass { integrator: &integrator, camera, still: still.as_ref(), pass };
+    let setup = Pass::new(&integrator, camera, still.as_ref(), pass);
     let w = settings.width as usize;
     let total = w * settings.height as usize;
     let done = AtomicUsize::new(0);
@@ -106,7 +107,7 @@ pub fn render_pass(
                     // Pixels side by side that are at the same sample, seen by a still camera:
                     // their camera rays share the pinhole and go through the BVH together.
                     let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
-                    tally.add(if setup.still.is_some() && same {
+                    tally.add(if setup.packets && same {
                         setup.sample_run(pixels)
                     } else {
                         setup.sample_alone(pixels)
@@ -161,7 +162,8 @@ fn sample_range(first: u32, pass: SamplePass) -> u32 {
 
 /// The camera ray of pixel `(x, y)` for the sample whose random numbers are `sampler`
 /// (`still`: a still camera's ray generator, made once per pass; a moving camera's is made
-/// per sample).
+/// per sample), made by `through` from the pose's generator, the pixel and the jitter (a
+/// pinhole's ray, or a lens's: generic, so the pinhole's code has no lens in it).
 fn camera_ray(
     settings: &RenderSettings,
     camera: &CameraMotion,
@@ -169,12 +171,13 @@ fn camera_ray(
     x: u32,
     y: u32,
     sampler: &PixelSampler,
+    through: impl Fn(&RayGenerator, u32, u32, Vec2) -> Ray,
 ) -> Ray {
     let jitter = Vec2::splat(0.5) + settings.filter.warp(sampler.pixel_offset);
     let time = sampler.time;
     let mut ray = match still {
-        Some(rays) => rays.ray(x, y, jitter),
-        None => RayGenerator::new(&camera.at(time), settings.width, settings.height).ray(x, y, jitter),
+        Some(rays) => through(rays, x, y, jitter),
+        None => through(&RayGenerator::new(&camera.at(time), settings.width, settings.height), x, y, jitter),
     };
     ray.time = time;
     ray
@@ -189,6 +192,11 @@ struct Pass<'a> {
     /// A still camera's ray generator, made once per pass (`None` for a moving camera, whose
     /// generator is made per sample).
     still: Option<&'a RayGenerator>,
+    /// The thin lens (`None`: a pinhole, whose rays draw no lens sample).
+    lens: Option<ThinLens>,
+    /// Whether camera rays go through the BVH in packets: a still pinhole's rays share their
+    /// origin (a lens's do not, and the packet would fall back to one by one).
+    packets: bool,
     /// Which samples the pass adds.
     pass: SamplePass,
 }
@@ -202,14 +210,25 @@ struct PixelRun<'a> {
     counts: &'a mut [u32],
 }
 
-impl Pass<'_> {
+impl<'a> Pass<'a> {
+    fn new(
+        integrator: &'a Integrator<'a>,
+        camera: &'a CameraMotion,
+        still: Option<&'a RayGenerator>,
+        pass: SamplePass,
+    ) -> Pass<'a> {
+        // The lens of the pose at shutter open: a moving camera keeps its focus distance.
+        let lens = ThinLens::new(integrator.settings, &camera.start);
+        Pass { integrator, camera, still, lens, packets: camera.is_still() && lens.is_none(), pass }
+    }
+
     /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,
     /// uses (or [`Pass::sample_run`], which differs only in finding the camera rays' hits as
     /// a packet).
     fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
         let sampler = self.sampler(x, y, k);
-        let ray = self.camera_ray(x, y, &sampler);
-        if R::RECORDS && self.camera.is_still() {
+        let ray = self.camera_ray(x, y, k, &sampler);
+        if R::RECORDS && self.packets {
             // A still camera's rays go through the BVH in packets (`sample_run`): the recorder
             // is told what the packet of this pixel's run entered for its ray.
             let (rays, lane) = self.camera_run(x, y, k);
@@ -228,7 +247,7 @@ impl Pass<'_> {
     fn camera_run(&self, x: u32, y: u32, k: u32) -> (Vec<Ray>, usize) {
         let x0 = x - x % PACKET as u32;
         let x1 = (x0 + PACKET as u32).min(self.integrator.settings.width);
-        let rays = (x0..x1).map(|xi| self.camera_ray(xi, y, &self.sampler(xi, y, k))).collect();
+        let rays = (x0..x1).map(|xi| self.pinhole_ray(xi, y, &self.sampler(xi, y, k))).collect();
         (rays, (x - x0) as usize)
     }
 
@@ -238,10 +257,27 @@ impl Pass<'_> {
         PixelSampler::new(self.pass.seed, y * self.integrator.settings.width + x, k, self.pass.planned)
     }
 
-    /// The camera ray of pixel `(x, y)` for the sample `sampler` draws.
+    /// The camera ray of sample `k` of pixel `(x, y)`, whose other numbers `sampler` draws:
+    /// through the lens if there is one.
     #[inline]
-    fn camera_ray(&self, x: u32, y: u32, sampler: &PixelSampler) -> Ray {
-        camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler)
+    fn camera_ray(&self, x: u32, y: u32, k: u32, sampler: &PixelSampler) -> Ray {
+        match self.lens {
+            None => self.pinhole_ray(x, y, sampler),
+            Some(lens) => {
+                let pixel = y * self.integrator.settings.width + x;
+                let u = PixelSampler::lens_offset(self.pass.seed, pixel, k, self.pass.planned);
+                camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, |g, x, y, j| {
+                    lens.ray(g, x, y, j, u)
+                })
+            }
+        }
+    }
+
+    /// The pinhole's camera ray of pixel `(x, y)` for the sample `sampler` draws (the packets'
+    /// rays: [`Pass::packets`] holds only without a lens).
+    #[inline]
+    fn pinhole_ray(&self, x: u32, y: u32, sampler: &PixelSampler) -> Ray {
+        camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, RayGenerator::ray)
     }
 
     /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
@@ -259,7 +295,7 @@ impl Pass<'_> {
             // Two arrays built in place: an array of (sampler, ray) pairs split into them cost
             // a `memcpy` per packet.
             let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
-            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.camera_ray(x(i), y, &samplers[i]));
+            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let mut rec = NoRecorder;
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {
@@ -331,5 +367,5 @@ pub fn trace_pixel<R: RayRecorder>(
 ) -> Color {
     let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
-    Pass { integrator: &integrator, camera, still: None, pass }.sample_pixel(x, y, k, rec).0
+    Pass::new(&integrator, camera, None, pass).sample_pixel(x, y, k, rec).0
 }

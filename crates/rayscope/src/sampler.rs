@@ -230,6 +230,40 @@ pub fn stratum_1d(i: u32, n: u32, jitter: f32) -> f32 {
     (i as f32 + jitter) / n.max(1) as f32
 }
 
+/// The two hashes a pixel sample's numbers come from: one per pixel, one per sample.
+struct SampleKeys {
+    pixel_key: u64,
+    sample_key: u64,
+}
+
+impl SampleKeys {
+    #[inline]
+    fn new(seed: u64, pixel: u32, index: u32) -> SampleKeys {
+        let pixel_key = mix64(seed ^ mix64(pixel as u64 ^ 0x9E37_79B9_7F4A_7C15));
+        let sample_key = mix64(pixel_key ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
+        SampleKeys { pixel_key, sample_key }
+    }
+}
+
+/// Mixed into a pixel's key to give its lens samples their own numbers.
+const LENS_STREAM: u64 = 0x6A09_E667_F3BC_C909;
+
+/// A nested uniform (Owen) scramble of the bits of `i` read from the most significant end
+/// (Burley, "Practical Hash-based Owen Scrambling", 2020): a permutation of the indices that
+/// maps every aligned block of `2^k` indices onto an aligned block of `2^k`, so the first
+/// `2^k` points of a shuffled `(0,2)`-sequence are still the stratified set of some block.
+#[inline]
+fn nested_uniform_shuffle(i: u32, seed: u32) -> u32 {
+    // Laine and Karras's hash on the reversed bits: each bit is changed only by the bits below
+    // it, which (reversed) are the bits above it.
+    let mut x = i.reverse_bits().wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x.reverse_bits()
+}
+
 /// The random numbers of one pixel sample.
 #[derive(Clone, Debug)]
 pub struct PixelSampler {
@@ -248,8 +282,7 @@ impl PixelSampler {
     pub fn new(seed: u64, pixel: u32, index: u32, planned: u32) -> PixelSampler {
         // Built for every camera sample, so kept to a few hashes: a profile once found a
         // third of a simple scene's time here.
-        let pixel_key = mix64(seed ^ mix64(pixel as u64 ^ 0x9E37_79B9_7F4A_7C15));
-        let sample_key = mix64(pixel_key ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
+        let SampleKeys { pixel_key, sample_key } = SampleKeys::new(seed, pixel, index);
         let rng = Pcg32::from_state(sample_key, pixel_key);
         // One planned sample: the pixel centre, as the course traced it (tested before the
         // square root, whose latency showed in profiles of one-sample renders).
@@ -286,6 +319,37 @@ impl PixelSampler {
                 Vec2::new(
                     bits_to_unit(van_der_corput(index) ^ (shift as u32)),
                     bits_to_unit(sobol_dim1(index) ^ ((shift >> 32) as u32)),
+                )
+            }
+        }
+    }
+
+    /// The point on the lens of sample `index` of pixel `pixel` (arguments as
+    /// [`PixelSampler::new`]), in `[0,1)^2` (up to the grid's closed edge, as
+    /// [`Strata2::sample`]), for a thin lens ([`crate::lens::ThinLens`]): a function of the
+    /// same seed, pixel and index, so the debugger replays it. It is not drawn by
+    /// [`PixelSampler::new`], so that a pinhole camera's samples cost nothing more.
+    ///
+    /// Stratified jointly with [`PixelSampler::pixel_offset`]: with a square planned count the
+    /// lens's `m x m` cells are each visited once, in an order independent of the pixel's
+    /// (so every pixel cell sees a different lens cell); otherwise the `(0,2)`-sequence of an
+    /// Owen-shuffled index with its own digital shift, whose first `2^k` points are still one
+    /// per elementary interval, decorrelated from the pixel offsets by the shuffle.
+    pub fn lens_offset(seed: u64, pixel: u32, index: u32, planned: u32) -> Vec2 {
+        let SampleKeys { pixel_key, sample_key } = SampleKeys::new(seed, pixel, index);
+        let lens_key = mix64(pixel_key ^ LENS_STREAM);
+        match exact_sqrt(planned) {
+            Some(m) if m > 1 && index < planned => {
+                let cell = permute(index, planned, lens_key as u32);
+                let j = mix64(sample_key ^ LENS_STREAM);
+                let jitter = Vec2::new(bits_to_unit(j as u32), bits_to_unit((j >> 32) as u32));
+                (Vec2::new((cell % m) as f32, (cell / m) as f32) + jitter) / m as f32
+            }
+            _ => {
+                let i = nested_uniform_shuffle(index, (lens_key >> 32) as u32);
+                Vec2::new(
+                    bits_to_unit(van_der_corput(i) ^ (lens_key as u32)),
+                    bits_to_unit(sobol_dim1(i) ^ ((lens_key >> 16) as u32)),
                 )
             }
         }
@@ -353,14 +417,16 @@ mod tests {
         // The first 64 points of the shifted (0,2)-sequence: one per cell of an 8x8 grid, and
         // one per 64 x 1 strip.
         let pts: Vec<Vec2> = (0..64).map(|i| PixelSampler::new(9, 5, i, 0).pixel_offset).collect();
-        let mut grid: Vec<u32> = pts.iter().map(|p| (p.x * 8.0) as u32 * 8 + (p.y * 8.0) as u32).collect();
-        grid.sort();
-        grid.dedup();
-        assert_eq!(grid.len(), 64);
-        let mut strips: Vec<u32> = pts.iter().map(|p| (p.x * 64.0) as u32).collect();
-        strips.sort();
-        strips.dedup();
-        assert_eq!(strips.len(), 64);
+        assert_one_per_cell(&pts, |p| (p.x * 8.0) as u32 * 8 + (p.y * 8.0) as u32);
+        assert_one_per_cell(&pts, |p| (p.x * 64.0) as u32);
+    }
+
+    /// Each of `pts` in its own cell, as `cell` numbers them.
+    fn assert_one_per_cell(pts: &[Vec2], cell: impl Fn(&Vec2) -> u32) {
+        let mut cells: Vec<u32> = pts.iter().map(cell).collect();
+        cells.sort();
+        cells.dedup();
+        assert_eq!(cells.len(), pts.len());
     }
 
     #[test]
@@ -371,6 +437,34 @@ mod tests {
         assert_eq!(a.next_2d(), b.next_2d());
         let c = PixelSampler::new(1, 2, 4, 4);
         assert_ne!(a.pixel_offset, c.pixel_offset);
+    }
+
+    #[test]
+    fn lens_offsets_are_stratified_and_replayable() {
+        // A square count: one sample per lens cell, in another order than the pixel cells.
+        let n = 16;
+        let lens: Vec<Vec2> = (0..n).map(|i| PixelSampler::lens_offset(3, 77, i, n)).collect();
+        let cell = |o: &Vec2| (o.x * 4.0) as u32 * 4 + (o.y * 4.0) as u32;
+        assert_one_per_cell(&lens, cell);
+        let pixel: Vec<_> = (0..n).map(|i| cell(&PixelSampler::new(3, 77, i, n).pixel_offset)).collect();
+        assert_ne!(pixel, lens.iter().map(cell).collect::<Vec<_>>(), "lens cells follow the pixel cells");
+        // Open-ended: the first 64 are one per cell of an 8x8 grid, of a 64 x 1 and of a 1 x 64.
+        let pts: Vec<Vec2> = (0..64).map(|i| PixelSampler::lens_offset(9, 5, i, 0)).collect();
+        assert_one_per_cell(&pts, |p| (p.x * 8.0) as u32 * 8 + (p.y * 8.0) as u32);
+        assert_one_per_cell(&pts, |p| (p.x * 64.0) as u32);
+        assert_one_per_cell(&pts, |p| (p.y * 64.0) as u32);
+        assert!(pts.iter().all(|p| (0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y)));
+        assert_eq!(PixelSampler::lens_offset(9, 5, 7, 0), pts[7], "the same inputs give the same point");
+    }
+
+    #[test]
+    fn nested_uniform_shuffle_permutes_aligned_blocks() {
+        for seed in [0, 1, 0xdead_beef] {
+            let mut first: Vec<u32> = (0..8).map(|i| nested_uniform_shuffle(i, seed)).collect();
+            first.sort();
+            let base = first[0] & !7;
+            assert_eq!(first, (base..base + 8).collect::<Vec<_>>(), "seed {seed}");
+        }
     }
 
     #[test]

@@ -53,6 +53,14 @@ pub struct RenderSettings {
     pub filter: PixelFilter,
     /// Seed of every random number; the same seed gives the same image.
     pub seed: u64,
+    /// Lens radius in scene units, for depth of field ([`crate::lens::ThinLens`]); 0 is a
+    /// pinhole (everything sharp, and no lens sampling at all).
+    pub aperture: f32,
+    /// Depth of the plane in focus, along the view axis; `None` focuses on the camera's
+    /// look-at point (a trackball's distance, a look-at camera's target). Read only when
+    /// `aperture > 0`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub focus_distance: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -76,6 +84,8 @@ impl Default for RenderSettings {
             gloss_samples: 0,
             filter: PixelFilter::Box,
             seed: 0,
+            aperture: 0.0,
+            focus_distance: None,
         }
     }
 }
@@ -119,6 +129,12 @@ impl RenderSettings {
         }
         if self.spp == 0 || self.spp > MAX_SAMPLES {
             return bad(format!("samples per pixel {} is out of range (1 to {MAX_SAMPLES})", self.spp));
+        }
+        if !(self.aperture.is_finite() && self.aperture >= 0.0) {
+            return bad(format!("aperture {} must be a finite lens radius of 0 or more", self.aperture));
+        }
+        if let Some(d) = self.focus_distance.filter(|d| !(d.is_finite() && *d > 0.0)) {
+            return bad(format!("focus distance {d} must be finite and greater than 0"));
         }
         for (what, n) in [("light samples", self.light_samples), ("gloss samples", self.gloss_samples)] {
             if n > MAX_SAMPLES {
