@@ -15,6 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 mod bench;
 mod bvh_obj;
 mod compare;
+mod env_args;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -166,6 +167,8 @@ struct SceneArgs {
     threads: Option<usize>,
     #[command(flatten)]
     settings: SettingsArgs,
+    #[command(flatten)]
+    environment: env_args::EnvironmentArgs,
 }
 
 /// Overrides of [`RenderSettings`]; each given flag wins over the scene file's `[render]`.
@@ -441,6 +444,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
     s.validate()?;
     let mut scene = scene;
+    args.environment.apply(&mut scene)?;
     if let Some(end) = &f.camera_end {
         let CameraDesc::Trackball { look_at, distance, fov, .. } = scene.camera else {
             bail!("--camera-end needs a trackball camera; give a look-at scene's end pose as `camera_end` in its file");

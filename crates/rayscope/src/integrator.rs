@@ -7,6 +7,7 @@
 //! below [`RenderSettings::adc_bailout`] is not cast.
 
 use crate::bvh::{PACKET, TraversalLog};
+use crate::environment::Environment;
 use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
@@ -167,7 +168,11 @@ impl<'a> Integrator<'a> {
         let color = match hit {
             None => {
                 ctx.recorder.hit(None);
-                self.settings.background
+                // Without a map, today's miss: the branch on the option is all it costs.
+                match &self.scene.environment {
+                    None => self.settings.background,
+                    Some(env) => self.environment(env, ray, ctx),
+                }
             }
             Some(hit) => {
                 let si = self.scene.surface(ray, &hit, &self.shading);
@@ -186,6 +191,19 @@ impl<'a> Integrator<'a> {
         };
         ctx.recorder.end_ray(color);
         color
+    }
+
+    /// What a ray that missed returns in a scene with an environment map: the map's radiance
+    /// in its direction (told to the recorder, with the texel it read). Out of line: scenes
+    /// without a map keep the miss path they had.
+    #[inline(never)]
+    fn environment<R: RayRecorder>(&self, env: &Environment, ray: &Ray, ctx: &mut PathContext<R>) -> Color {
+        if R::RECORDS {
+            let lookup = env.lookup(ray.dir, self.shading.texture_filter);
+            ctx.recorder.environment(&lookup);
+            return lookup.radiance;
+        }
+        env.radiance(ray.dir, self.shading.texture_filter)
     }
 
     fn shade<R: RayRecorder>(

@@ -27,6 +27,7 @@ pub mod aov;
 pub mod camera;
 pub mod compare;
 pub mod debug;
+pub mod environment;
 pub mod film;
 pub mod output;
 pub mod progressive;

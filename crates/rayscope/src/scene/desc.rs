@@ -24,6 +24,11 @@
 //!
 //! [render]                      # any field of RenderSettings
 //! max_depth = 3
+//!
+//! [environment]                 # an equirectangular map that rays which miss return
+//! path = "sky.hdr"              # .hdr, .exr or .png, 2:1, relative to this file
+//! intensity = 1.0
+//! rotation = 0                  # degrees about +y
 //! ```
 
 use std::collections::HashMap;
@@ -33,6 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Mesh, Motion, Scene, SceneSphere};
 use crate::camera::CameraDesc;
+use crate::environment::{Environment, EnvironmentDesc};
 use crate::error::{Error, Result};
 use crate::io::obj::{ObjFile, load_obj, smooth_normals};
 use crate::io::texture::load_texture;
@@ -66,6 +72,10 @@ pub struct SceneDesc {
     /// Render settings the scene asks for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render: Option<RenderSettings>,
+    /// The environment map that rays which miss return (`[environment] path, intensity,
+    /// rotation`); `None`: the background colour.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub environment: Option<EnvironmentDesc>,
 }
 
 /// A linear motion during the exposure: translated by `start` when the shutter opens and by
@@ -451,6 +461,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         desc.render.clone(),
     );
     scene.camera_end = desc.camera_end.clone();
+    scene.environment = desc.environment.as_ref().map(|e| Environment::load(e, &ctx.base_dir)).transpose()?;
     scene.warnings = warnings;
     Ok(scene)
 }
@@ -464,7 +475,8 @@ fn motion(d: &Option<MotionDesc>) -> Option<Motion> {
 /// table (`[camera]`) or in one of an array of tables (the third `[[light]]`).
 #[derive(Debug)]
 struct BadValue {
-    /// The table's name: `camera`, `camera_end`, `render`, `mesh`, `sphere` or `light`.
+    /// The table's name: `camera`, `camera_end`, `render`, `mesh`, `sphere`, `light` or
+    /// `environment`.
     table: &'static str,
     /// Which of the array of tables (0-based); `None` for a single table.
     index: Option<usize>,
@@ -564,6 +576,13 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
     }
     for (i, l) in desc.lights.iter().enumerate() {
         check_light(l).or_else(|e| bad("light", Some(i), e.key, e.message))?;
+    }
+    if let Some(e) = &desc.environment {
+        e.validate("intensity", "rotation").or_else(|err| {
+            let intensity_ok = e.intensity.is_finite() && e.intensity >= 0.0;
+            let key = if intensity_ok { "rotation" } else { "intensity" };
+            bad("environment", None, key, &err.to_string())
+        })?;
     }
     Ok(())
 }
