@@ -36,7 +36,7 @@ impl EnvironmentArgs {
         };
         desc.validate("--env-intensity", "--env-rotation")?;
         if self.env_map.is_some() {
-            return Ok(Some(Environment::load(&desc, std::path::Path::new("."))?));
+            return Ok(Some(Environment::load(&desc, std::path::Path::new(""))?));
         }
         let Some(env) = scene else {
             if self.env_intensity.is_some() || self.env_rotation.is_some() {
@@ -50,6 +50,17 @@ impl EnvironmentArgs {
         env.set_intensity(desc.intensity);
         env.set_rotation(desc.rotation);
         Ok(Some(env))
+    }
+
+    /// The flags as the viewer keeps them over every scene it loads.
+    #[cfg(feature = "viewer")]
+    pub fn viewer_override(&self) -> Result<rayscope_viewer::environment::EnvOverride> {
+        let map = if self.env_map.is_some() { self.resolve(None)? } else { None };
+        Ok(rayscope_viewer::environment::EnvOverride {
+            map,
+            intensity: self.env_intensity,
+            rotation: self.env_rotation,
+        })
     }
 
     /// Apply [`EnvironmentArgs::resolve`] to `scene`.

@@ -13,6 +13,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod bench;
+mod bloom_args;
 mod bvh_obj;
 mod compare;
 mod env_args;
@@ -228,6 +229,8 @@ struct SettingsArgs {
     /// optionally followed by a distance: `RX,RY,RZ[,DIST]`.
     #[arg(long, value_name = "RX,RY,RZ[,DIST]", value_parser = parse_camera_end)]
     camera_end: Option<CameraEnd>,
+    #[command(flatten)]
+    bloom: bloom_args::BloomArgs,
 }
 
 /// The `--camera-end` pose: trackball rotation and, optionally, distance.
@@ -442,6 +445,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.seed = f.seed.unwrap_or(s.seed);
     s.filter = f.filter.unwrap_or(s.filter);
     s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
+    f.bloom.apply(&mut s.bloom)?;
     s.validate()?;
     let mut scene = scene;
     args.environment.apply(&mut scene)?;
@@ -564,7 +568,9 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
         (out.film, out.rays, fastest)
     };
     bar.finish_and_clear();
-    write_image(&film.to_image(), &args.output, encoding)?;
+    let mut image = film.to_image();
+    rayscope::post::bloom::apply_to_image(&mut image, &settings.bloom);
+    write_image(&image, &args.output, encoding)?;
     let mrays = rays.total() as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
     eprintln!(
         "{}",
@@ -644,6 +650,7 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         screenshot: args.screenshot,
         frames: args.frames,
         compare: args.compare,
+        environment: args.scene.environment.viewer_override()?,
     })
 }
 

@@ -223,6 +223,10 @@ pub struct ViewerState {
     pub generation: u64,
     /// An image compared with ours (`--compare`), and its views.
     pub compare: Option<crate::compare::CompareViews>,
+    /// The environment map's flags, applied to every scene loaded.
+    pub env: crate::environment::EnvOverride,
+    /// Which of bloom's layers the ray-traced view shows.
+    pub bloom_layer: crate::bloom::BloomLayer,
 }
 
 impl ViewerState {
@@ -254,6 +258,8 @@ impl ViewerState {
             highlight: None,
             generation: 0,
             compare: None,
+            env: Default::default(),
+            bloom_layer: Default::default(),
         };
         s.load_scene(spec);
         s
@@ -262,7 +268,8 @@ impl ViewerState {
     /// Load another scene; on failure keep the current one and record the error.
     pub fn load_scene(&mut self, spec: &str) {
         match Scene::load(spec, self.assets.as_deref()) {
-            Ok(scene) => {
+            Ok(mut scene) => {
+                self.env.apply(&mut scene);
                 self.trackball = Trackball::from_desc(&scene.camera);
                 self.settings = RenderSettings {
                     width: self.settings.width,
@@ -554,7 +561,12 @@ impl ViewerState {
             };
             let ray_shown = shown(LineKind::of_ray(ray.kind));
             match &ray.hit {
-                None if ray_shown => out.line(o, o + d * (4.0 * r), MISS_COLOR),
+                None if ray_shown => {
+                    out.line(o, o + d * (4.0 * r), MISS_COLOR);
+                    if let (Some(env), Some(lookup)) = (&self.scene.environment, &ray.environment) {
+                        crate::environment::texel_lines(out, env, o, lookup, 4.0 * r);
+                    }
+                }
                 None => {}
                 Some(h) => {
                     let p = Vec3::from_array(h.point);

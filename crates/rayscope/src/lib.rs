@@ -30,6 +30,7 @@ pub mod debug;
 pub mod environment;
 pub mod film;
 pub mod output;
+pub mod post;
 pub mod progressive;
 pub mod record;
 pub mod render;
