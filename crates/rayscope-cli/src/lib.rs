@@ -137,11 +137,22 @@ struct ViewArgs {
     /// The view to start in (theirs, ours and difference need --compare).
     #[arg(long, value_enum, default_value = "raster")]
     view: ViewArg,
+    /// Which of bloom's layers the ray-traced view shows: the image, the bright pass or the
+    /// blurred bright pass (with --bloom-strength above 0).
+    #[arg(long, value_enum, default_value = "image")]
+    bloom_layer: BloomLayerArg,
     /// Compare this image (PNG, BMP, OpenEXR) with our render of the scene, as `rayscope
     /// compare` does: adds the views theirs, ours and difference; rendered at its size unless
     /// --width/--height say otherwise.
     #[arg(long, value_name = "THEIRS")]
     compare: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BloomLayerArg {
+    Image,
+    Bright,
+    Blurred,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -651,6 +662,11 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         frames: args.frames,
         compare: args.compare,
         environment: args.scene.environment.viewer_override()?,
+        bloom_layer: match args.bloom_layer {
+            BloomLayerArg::Image => rayscope_viewer::bloom::BloomLayer::Image,
+            BloomLayerArg::Bright => rayscope_viewer::bloom::BloomLayer::Bright,
+            BloomLayerArg::Blurred => rayscope_viewer::bloom::BloomLayer::Blurred,
+        },
     })
 }
 

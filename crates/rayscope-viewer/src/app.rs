@@ -67,6 +67,8 @@ pub struct ViewerOptions {
     /// The environment map's flags, over the scene file's (`--env-map`, `--env-intensity`,
     /// `--env-rotation`).
     pub environment: crate::environment::EnvOverride,
+    /// Which of bloom's layers the ray-traced view shows.
+    pub bloom_layer: crate::bloom::BloomLayer,
 }
 
 /// Open the viewer window; returns when it closes (or, with a screenshot, once it is saved).
@@ -141,6 +143,7 @@ impl RayscopeApp {
             state.env = opts.environment.clone();
             state.reload();
         }
+        state.bloom_layer = opts.bloom_layer;
         if let Some(s) = opts.settings.clone() {
             state.set_settings(s);
         }

@@ -7,7 +7,6 @@
 //! below [`RenderSettings::adc_bailout`] is not cast.
 
 use crate::bvh::{PACKET, TraversalLog};
-use crate::environment::Environment;
 use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
@@ -18,6 +17,7 @@ use crate::record::{
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Hit, LightVisibility, Scene, SurfaceInteraction};
 use crate::settings::{RenderSettings, ShadingOptions};
+use crate::sky::{Background, Sky};
 
 /// Counts of rays cast, for throughput figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -61,20 +61,32 @@ impl<'r, R: RayRecorder> PathContext<'r, R> {
     }
 }
 
-/// Traces rays through one scene with one set of settings.
-pub struct Integrator<'a> {
+/// Traces rays through one scene with one set of settings; rays that miss return what `S`
+/// says ([`crate::sky`]: the background colour, or an environment map).
+pub struct Integrator<'a, S: Sky = Background> {
     /// The scene.
     pub scene: &'a Scene,
     /// The settings.
     pub settings: &'a RenderSettings,
     /// The settings' part that the scene's surface queries read.
     pub shading: ShadingOptions,
+    /// What rays that miss return.
+    pub sky: S,
 }
 
 impl<'a> Integrator<'a> {
-    /// An integrator for this scene and these settings.
+    /// An integrator for this scene and these settings, whose misses return the background
+    /// colour (the scene's environment map, if any, is not looked at: see
+    /// [`Integrator::with_sky`]).
     pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
-        Integrator { scene, settings, shading: settings.shading_options() }
+        Integrator::with_sky(scene, settings, Background)
+    }
+}
+
+impl<'a, S: Sky> Integrator<'a, S> {
+    /// An integrator whose misses return what `sky` says.
+    pub fn with_sky(scene: &'a Scene, settings: &'a RenderSettings, sky: S) -> Self {
+        Integrator { scene, settings, shading: settings.shading_options(), sky }
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
@@ -168,11 +180,7 @@ impl<'a> Integrator<'a> {
         let color = match hit {
             None => {
                 ctx.recorder.hit(None);
-                // Without a map, today's miss: the branch on the option is all it costs.
-                match &self.scene.environment {
-                    None => self.settings.background,
-                    Some(env) => self.environment(env, ray, ctx),
-                }
+                self.sky.miss(ray, self.settings, ctx.recorder)
             }
             Some(hit) => {
                 let si = self.scene.surface(ray, &hit, &self.shading);
@@ -191,19 +199,6 @@ impl<'a> Integrator<'a> {
         };
         ctx.recorder.end_ray(color);
         color
-    }
-
-    /// What a ray that missed returns in a scene with an environment map: the map's radiance
-    /// in its direction (told to the recorder, with the texel it read). Out of line: scenes
-    /// without a map keep the miss path they had.
-    #[inline(never)]
-    fn environment<R: RayRecorder>(&self, env: &Environment, ray: &Ray, ctx: &mut PathContext<R>) -> Color {
-        if R::RECORDS {
-            let lookup = env.lookup(ray.dir, self.shading.texture_filter);
-            ctx.recorder.environment(&lookup);
-            return lookup.radiance;
-        }
-        env.radiance(ray.dir, self.shading.texture_filter)
     }
 
     fn shade<R: RayRecorder>(

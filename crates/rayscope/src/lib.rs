@@ -61,5 +61,6 @@ mod error;
 mod filter;
 mod integrator;
 mod io;
+mod sky;
 
 pub use error::{Error, Result};

@@ -17,6 +17,7 @@ use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
+use crate::sky::Sky;
 
 // The counts a render reports, under the name its users meet them by.
 pub use crate::integrator::RayCounts;
@@ -77,9 +78,26 @@ pub fn render_pass(
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> (RayCounts, bool) {
-    let integrator = Integrator::new(scene, settings);
+    // The sky is chosen here, once: a scene without an environment map runs the miss path
+    // it always had (see `crate::sky`).
+    match &scene.environment {
+        None => pass_with(&Integrator::new(scene, settings), camera, film, pass, cancel, progress),
+        Some(env) => pass_with(&Integrator::with_sky(scene, settings, env), camera, film, pass, cancel, progress),
+    }
+}
+
+/// [`render_pass`] with `integrator`.
+fn pass_with<S: Sky>(
+    integrator: &Integrator<S>,
+    camera: &CameraMotion,
+    film: &mut Film,
+    pass: SamplePass,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> (RayCounts, bool) {
+    let settings = integrator.settings;
     let still = camera.end.is_none().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
-    let setup = Pass { integrator: &integrator, camera, still: still.as_ref(), pass };
+    let setup = Pass { integrator, camera, still: still.as_ref(), pass };
     let w = settings.width as usize;
     let total = w * settings.height as usize;
     let done = AtomicUsize::new(0);
@@ -181,9 +199,9 @@ fn camera_ray(
 }
 
 /// What every pixel of a pass shares.
-struct Pass<'a> {
+struct Pass<'a, S: Sky> {
     /// The scene and settings, ready to shade.
-    integrator: &'a Integrator<'a>,
+    integrator: &'a Integrator<'a, S>,
     /// The camera over the shutter interval.
     camera: &'a CameraMotion,
     /// A still camera's ray generator, made once per pass (`None` for a moving camera, whose
@@ -202,7 +220,7 @@ struct PixelRun<'a> {
     counts: &'a mut [u32],
 }
 
-impl Pass<'_> {
+impl<S: Sky> Pass<'_, S> {
     /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,
     /// uses (or [`Pass::sample_run`], which differs only in finding the camera rays' hits as
     /// a packet).
@@ -323,7 +341,15 @@ pub fn trace_pixel<R: RayRecorder>(
     k: u32,
     rec: &mut R,
 ) -> Color {
-    let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
-    Pass { integrator: &integrator, camera, still: None, pass }.sample_pixel(x, y, k, rec).0
+    match &scene.environment {
+        None => {
+            Pass { integrator: &Integrator::new(scene, settings), camera, still: None, pass }.sample_pixel(x, y, k, rec)
+        }
+        Some(env) => {
+            let integrator = Integrator::with_sky(scene, settings, env);
+            Pass { integrator: &integrator, camera, still: None, pass }.sample_pixel(x, y, k, rec)
+        }
+    }
+    .0
 }
