@@ -14,10 +14,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 mod bench;
 mod bench_split;
+mod bloom_args;
 mod bvh_obj;
 mod bvh_split;
 mod compare;
 mod export;
+mod env_args;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -156,11 +158,22 @@ struct ViewArgs {
     /// The view to start in (theirs, ours and difference need --compare).
     #[arg(long, value_enum, default_value = "raster")]
     view: ViewArg,
+    /// Which of bloom's layers the ray-traced view shows: the image, the bright pass or the
+    /// blurred bright pass (with --bloom-strength above 0).
+    #[arg(long, value_enum, default_value = "image")]
+    bloom_layer: BloomLayerArg,
     /// Compare this image (PNG, BMP, OpenEXR) with our render of the scene, as `rayscope
     /// compare` does: adds the views theirs, ours and difference; rendered at its size unless
     /// --width/--height say otherwise.
     #[arg(long, value_name = "THEIRS")]
     compare: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BloomLayerArg {
+    Image,
+    Bright,
+    Blurred,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -188,6 +201,8 @@ struct SceneArgs {
     threads: Option<usize>,
     #[command(flatten)]
     settings: SettingsArgs,
+    #[command(flatten)]
+    environment: env_args::EnvironmentArgs,
 }
 
 /// Overrides of [`RenderSettings`]; each given flag wins over the scene file's `[render]`.
@@ -260,6 +275,8 @@ struct SettingsArgs {
     /// whatever the scene file says: `linear` or `catmull-rom`.
     #[arg(long, value_name = "linear|catmull-rom", value_parser = parse_interpolation)]
     interpolation: Option<Interpolation>,
+    #[command(flatten)]
+    bloom: bloom_args::BloomArgs,
 }
 
 fn parse_interpolation(s: &str) -> Result<Interpolation, String> {
@@ -515,8 +532,10 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     s.texture_filter = f.texture_filter.unwrap_or(s.texture_filter);
     s.aperture = f.aperture.unwrap_or(s.aperture);
     s.focus_distance = f.focus_distance.or(s.focus_distance);
+    f.bloom.apply(&mut s.bloom)?;
     s.validate()?;
     let mut scene = scene;
+    args.environment.apply(&mut scene)?;
     if let Some(i) = f.interpolation {
         scene.set_motion_interpolation(i);
     }
@@ -642,7 +661,9 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
         (out.film, out.rays, fastest)
     };
     bar.finish_and_clear();
-    write_image(&film.to_image(), &args.output, encoding)?;
+    let mut image = film.to_image();
+    rayscope::post::bloom::apply_to_image(&mut image, &settings.bloom);
+    write_image(&image, &args.output, encoding)?;
     let mrays = rays.total() as f64 / elapsed.as_secs_f64().max(1e-9) / 1e6;
     eprintln!(
         "{}",
@@ -729,6 +750,12 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
             ColorRaysBy::Kind => rayscope_viewer::overlay::ColorBy::Kind,
             ColorRaysBy::Time => rayscope_viewer::overlay::ColorBy::Time,
         }),
+        environment: args.scene.environment.viewer_override()?,
+        bloom_layer: match args.bloom_layer {
+            BloomLayerArg::Image => rayscope_viewer::bloom::BloomLayer::Image,
+            BloomLayerArg::Bright => rayscope_viewer::bloom::BloomLayer::Bright,
+            BloomLayerArg::Blurred => rayscope_viewer::bloom::BloomLayer::Blurred,
+        },
     })
 }
 

@@ -70,6 +70,11 @@ pub struct ViewerOptions {
     pub motion_interpolation: Option<rayscope::motion::Interpolation>,
     /// Colour the overlay's rays this way (default: by depth).
     pub color_by: Option<crate::overlay::ColorBy>,
+    /// The environment map's flags, over the scene file's (`--env-map`, `--env-intensity`,
+    /// `--env-rotation`).
+    pub environment: crate::environment::EnvOverride,
+    /// Which of bloom's layers the ray-traced view shows.
+    pub bloom_layer: crate::bloom::BloomLayer,
 }
 
 /// Open the viewer window; returns when it closes (or, with a screenshot, once it is saved).
@@ -115,6 +120,8 @@ pub struct RayscopeApp {
     worker: Worker,
     preview: Option<Preview>,
     traced: Option<egui::TextureHandle>,
+    /// The environment map behind the raster view.
+    env_background: crate::environment::BackgroundCache,
     last_frame: Option<FrameImage>,
     last_job: Option<(u64, CameraMotion, bool, u32, u32)>,
     headless: Option<Headless>,
@@ -144,6 +151,11 @@ impl RayscopeApp {
         if let Some(c) = opts.color_by {
             state.color_by = c;
         }
+        if opts.environment != crate::environment::EnvOverride::default() {
+            state.env = opts.environment.clone();
+            state.reload();
+        }
+        state.bloom_layer = opts.bloom_layer;
         if let Some(s) = opts.settings.clone() {
             state.set_settings(s);
         }
@@ -194,6 +206,7 @@ impl RayscopeApp {
             worker,
             preview,
             traced: None,
+            env_background: Default::default(),
             last_frame: None,
             last_job: None,
             headless,
@@ -278,6 +291,7 @@ impl RayscopeApp {
             heat_map: heat,
             max_spp: self.state.max_spp,
             generation: self.state.generation,
+            bloom_layer: self.state.bloom_layer,
         });
     }
 
@@ -349,6 +363,10 @@ impl RayscopeApp {
                 scale.legend(ui);
             }
         });
+        egui::CollapsingHeader::new("Environment map").default_open(true).show(ui, |ui| {
+            crate::environment::panel(ui, st);
+        });
+        egui::CollapsingHeader::new("Bloom").default_open(true).show(ui, |ui| crate::bloom::panel(ui, st));
         egui::CollapsingHeader::new("Imaging mode").default_open(true).show(ui, |ui| {
             let mut mode = st.mode;
             ui.radio_value(&mut mode, ModeChoice::Continuous, "Continuous")
@@ -674,14 +692,23 @@ impl RayscopeApp {
             painter.text(rect.center(), egui::Align2::CENTER_CENTER, text, Default::default(), Color32::GRAY)
         };
         match self.state.view {
-            ViewKind::Raster => match self.preview_texture(ui, frame, rect, Backdrop::Scene) {
-                Some(id) => {
+            ViewKind::Raster => {
+                let camera = self.state.trackball.camera();
+                let aspect = self.state.settings.width as f32 / self.state.settings.height as f32;
+                let map = self.env_background.texture(ui.ctx(), &self.state.scene, &camera, aspect);
+                if let Some(id) = map {
                     painter.image(id, rect, uv, Color32::WHITE);
                 }
-                None => {
-                    note("no GPU renderer");
+                let backdrop = if map.is_some() { Backdrop::SceneOverMap } else { Backdrop::Scene };
+                match self.preview_texture(ui, frame, rect, backdrop) {
+                    Some(id) => {
+                        painter.image(id, rect, uv, Color32::WHITE);
+                    }
+                    None => {
+                        note("no GPU renderer");
+                    }
                 }
-            },
+            }
             view => {
                 painter.rect_filled(rect, 0.0, Color32::BLACK);
                 let compared = self.state.compare.as_mut().and_then(|c| c.texture(ui.ctx(), view));

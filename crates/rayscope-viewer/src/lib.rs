@@ -6,7 +6,9 @@
 #![warn(missing_docs)]
 
 pub mod app;
+pub mod bloom;
 pub mod compare;
+pub mod environment;
 pub mod files;
 pub mod heat;
 pub mod lens;

@@ -57,6 +57,9 @@ pub const HIDDEN_ALPHA: f32 = 0.3;
 pub enum Backdrop {
     /// The shaded scene on a dark background (the raster view).
     Scene,
+    /// The shaded scene on a transparent background, over the environment map the viewer
+    /// paints beneath it (the raster view of a scene with a map).
+    SceneOverMap,
     /// Nothing visible: the scene only in the depth buffer, the background transparent, for
     /// drawing the overlay over another image (the ray-traced view, the heat map).
     DepthOnly,
@@ -448,7 +451,7 @@ impl Preview {
         };
         let clear = match backdrop {
             Backdrop::Scene => wgpu::Color { r: 0.06, g: 0.06, b: 0.07, a: 1.0 },
-            Backdrop::DepthOnly => wgpu::Color::TRANSPARENT,
+            Backdrop::DepthOnly | Backdrop::SceneOverMap => wgpu::Color::TRANSPARENT,
         };
         rs.queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
         let target = self.target.as_ref().expect("made above");
@@ -475,7 +478,7 @@ impl Preview {
             pass.set_bind_group(0, &self.bind_group, &[]);
             if let Some((buf, n, _)) = &self.mesh {
                 pass.set_pipeline(match backdrop {
-                    Backdrop::Scene => &self.mesh_pipeline,
+                    Backdrop::Scene | Backdrop::SceneOverMap => &self.mesh_pipeline,
                     Backdrop::DepthOnly => &self.depth_only_pipeline,
                 });
                 pass.set_vertex_buffer(0, buf.slice(..));

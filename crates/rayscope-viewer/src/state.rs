@@ -235,6 +235,10 @@ pub struct ViewerState {
     pub show_paths: bool,
     /// The interpolation every path is given on loading (`None`: the scene file's).
     pub motion_interpolation: Option<Interpolation>,
+    /// The environment map's flags, applied to every scene loaded.
+    pub env: crate::environment::EnvOverride,
+    /// Which of bloom's layers the ray-traced view shows.
+    pub bloom_layer: crate::bloom::BloomLayer,
 }
 
 impl ViewerState {
@@ -269,6 +273,8 @@ impl ViewerState {
             compare: None,
             show_paths: true,
             motion_interpolation: None,
+            env: Default::default(),
+            bloom_layer: Default::default(),
         };
         s.load_scene(spec);
         s
@@ -281,6 +287,7 @@ impl ViewerState {
                 if let Some(i) = self.motion_interpolation {
                     scene.set_motion_interpolation(i);
                 }
+                self.env.apply(&mut scene);
                 self.trackball = Trackball::from_desc(&scene.camera);
                 self.settings = RenderSettings {
                     width: self.settings.width,
@@ -597,7 +604,12 @@ impl ViewerState {
             };
             let ray_shown = shown(LineKind::of_ray(ray.kind));
             match &ray.hit {
-                None if ray_shown => out.line(o, o + d * (4.0 * r), MISS_COLOR),
+                None if ray_shown => {
+                    out.line(o, o + d * (4.0 * r), MISS_COLOR);
+                    if let (Some(env), Some(lookup)) = (&self.scene.environment, &ray.environment) {
+                        crate::environment::texel_lines(out, env, o, lookup, 4.0 * r);
+                    }
+                }
                 None => {}
                 Some(h) => {
                     let p = Vec3::from_array(h.point);

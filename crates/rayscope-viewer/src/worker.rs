@@ -32,6 +32,8 @@ pub struct RenderJob {
     pub heat_map: bool,
     /// Dynamic mode stops accumulating at this many samples per pixel.
     pub max_spp: u32,
+    /// Which of bloom's layers the frames show.
+    pub bloom_layer: crate::bloom::BloomLayer,
     /// Bumped by the UI whenever the accumulation must restart (new scene, settings, mode,
     /// or a new exposure). Camera changes alone do not bump it: the imaging mode decides
     /// whether they restart (dynamic) or blur (exposure).
@@ -204,15 +206,9 @@ fn run(shared: &Shared, repaint: &(dyn Fn() + Send + Sync)) {
             continue;
         }
         let done = prog.is_done() || (job.mode == ImagingMode::Dynamic && info.samples_per_pixel >= job.max_spp);
-        let frame = to_frame(
-            prog.film().to_image(),
-            info.frame,
-            info.samples_per_pixel,
-            info.mrays_per_second(),
-            job.generation,
-            done,
-        );
-        post(shared, frame, repaint);
+        let (saved, shown) = crate::bloom::frame_images(prog.film().to_image(), &job.settings.bloom, job.bloom_layer);
+        let frame = to_frame(shown, info.frame, info.samples_per_pixel, info.mrays_per_second(), job.generation, done);
+        post(shared, FrameImage { image: saved, ..frame }, repaint);
         if done {
             finished = Some(job);
         }

@@ -18,6 +18,7 @@ use crate::record::{
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
 use crate::scene::{Hit, LightVisibility, Scene, SurfaceInteraction};
 use crate::settings::{RenderSettings, ShadingModel, ShadingOptions};
+use crate::sky::{Background, Sky};
 
 /// Counts of rays cast, for throughput figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -61,8 +62,9 @@ impl<'r, R: RayRecorder> PathContext<'r, R> {
     }
 }
 
-/// Traces rays through one scene with one set of settings.
-pub struct Integrator<'a> {
+/// Traces rays through one scene with one set of settings; rays that miss return what `S`
+/// says ([`crate::sky`]: the background colour, or an environment map).
+pub struct Integrator<'a, S: Sky = Background> {
     /// The scene.
     pub scene: &'a Scene,
     /// The settings.
@@ -73,14 +75,25 @@ pub struct Integrator<'a> {
     /// runs Phong's code alone, with no per-hit choice of model (the default render keeps its
     /// instructions).
     models: bool,
+    /// What rays that miss return.
+    pub sky: S,
 }
 
 impl<'a> Integrator<'a> {
-    /// An integrator for this scene and these settings.
+    /// An integrator for this scene and these settings, whose misses return the background
+    /// colour (the scene's environment map, if any, is not looked at: see
+    /// [`Integrator::with_sky`]).
     pub fn new(scene: &'a Scene, settings: &'a RenderSettings) -> Self {
+        Integrator::with_sky(scene, settings, Background)
+    }
+}
+
+impl<'a, S: Sky> Integrator<'a, S> {
+    /// An integrator whose misses return what `sky` says.
+    pub fn with_sky(scene: &'a Scene, settings: &'a RenderSettings, sky: S) -> Self {
         let phong = |m: Option<ShadingModel>| m.unwrap_or(settings.shading_model) == ShadingModel::Phong;
         let models = !scene.materials.iter().all(|m| phong(m.model));
-        Integrator { scene, settings, shading: settings.shading_options(), models }
+        Integrator { scene, settings, shading: settings.shading_options(), models, sky }
     }
 
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
@@ -174,7 +187,7 @@ impl<'a> Integrator<'a> {
         let color = match hit {
             None => {
                 ctx.recorder.hit(None);
-                self.settings.background
+                self.sky.miss(ray, self.settings, ctx.recorder)
             }
             Some(hit) => {
                 let si = self.scene.surface(ray, &hit, &self.shading);

@@ -9,6 +9,7 @@
 use serde::Serialize;
 
 use crate::bvh::{QueryKind, TraversalLog, WideRef};
+use crate::environment::EnvironmentLookup;
 use crate::math::{Color, Vec3A};
 use crate::ray::{Interval, Ray};
 use crate::scene::Scene;
@@ -102,6 +103,10 @@ pub trait RayRecorder {
     /// [`SkipReason`].
     #[inline(always)]
     fn light_skipped(&mut self, _skip: &SkippedLight) {}
+    /// The current ray missed and read the scene's environment map here. Called only when
+    /// [`RayRecorder::RECORDS`], after [`RayRecorder::hit`] of `None`.
+    #[inline(always)]
+    fn environment(&mut self, _lookup: &EnvironmentLookup) {}
 }
 
 /// How a shaded surface weighs what it gathers, as the integrator applies it: its own light
@@ -303,6 +308,9 @@ pub struct RecordedRay {
     pub skipped_lights: Vec<SkippedLight>,
     /// What the renderer's traversal of the wide BVH entered to find its closest hit.
     pub traversal: Option<RecordedTraversal>,
+    /// For a ray that missed in a scene with an environment map: where it read the map.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub environment: Option<EnvironmentLookup>,
 }
 
 impl std::fmt::Display for StoppedBranch {
@@ -450,6 +458,7 @@ impl RayRecorder for RayTree {
             light_terms: Vec::new(),
             skipped_lights: Vec::new(),
             traversal: None,
+            environment: None,
         });
         self.open.push(Some(self.rays.len() - 1));
     }
@@ -528,6 +537,12 @@ impl RayRecorder for RayTree {
     fn light_skipped(&mut self, skip: &SkippedLight) {
         if let Some(r) = self.current() {
             r.skipped_lights.push(*skip);
+        }
+    }
+
+    fn environment(&mut self, lookup: &EnvironmentLookup) {
+        if let Some(r) = self.current() {
+            r.environment = Some(*lookup);
         }
     }
 }

@@ -18,6 +18,7 @@ use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
+use crate::sky::Sky;
 
 // The counts a render reports, under the name its users meet them by.
 pub use crate::integrator::RayCounts;
@@ -78,9 +79,26 @@ pub fn render_pass(
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> (RayCounts, bool) {
-    let integrator = Integrator::new(scene, settings);
+    // The sky is chosen here, once: a scene without an environment map runs the miss path
+    // it always had (see `crate::sky`).
+    match &scene.environment {
+        None => pass_with(&Integrator::new(scene, settings), camera, film, pass, cancel, progress),
+        Some(env) => pass_with(&Integrator::with_sky(scene, settings, env), camera, film, pass, cancel, progress),
+    }
+}
+
+/// [`render_pass`] with `integrator`.
+fn pass_with<S: Sky>(
+    integrator: &Integrator<S>,
+    camera: &CameraMotion,
+    film: &mut Film,
+    pass: SamplePass,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> (RayCounts, bool) {
+    let settings = integrator.settings;
     let still = camera.is_still().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
-    let setup = Pass::new(&integrator, camera, still.as_ref(), pass);
+    let setup = Pass::new(integrator, camera, still.as_ref(), pass);
     let w = settings.width as usize;
     let total = w * settings.height as usize;
     let done = AtomicUsize::new(0);
@@ -184,9 +202,9 @@ fn camera_ray(
 }
 
 /// What every pixel of a pass shares.
-struct Pass<'a> {
+struct Pass<'a, S: Sky> {
     /// The scene and settings, ready to shade.
-    integrator: &'a Integrator<'a>,
+    integrator: &'a Integrator<'a, S>,
     /// The camera over the shutter interval.
     camera: &'a CameraMotion,
     /// A still camera's ray generator, made once per pass (`None` for a moving camera, whose
@@ -210,13 +228,13 @@ struct PixelRun<'a> {
     counts: &'a mut [u32],
 }
 
-impl<'a> Pass<'a> {
+impl<'a, S: Sky> Pass<'a, S> {
     fn new(
-        integrator: &'a Integrator<'a>,
+        integrator: &'a Integrator<'a, S>,
         camera: &'a CameraMotion,
         still: Option<&'a RayGenerator>,
         pass: SamplePass,
-    ) -> Pass<'a> {
+    ) -> Pass<'a, S> {
         // The lens of the pose at shutter open: a moving camera keeps its focus distance.
         let lens = ThinLens::new(integrator.settings, &camera.start);
         Pass { integrator, camera, still, lens, packets: camera.is_still() && lens.is_none(), pass }
@@ -365,7 +383,10 @@ pub fn trace_pixel<R: RayRecorder>(
     k: u32,
     rec: &mut R,
 ) -> Color {
-    let integrator = Integrator::new(scene, settings);
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
-    Pass::new(&integrator, camera, None, pass).sample_pixel(x, y, k, rec).0
+    match &scene.environment {
+        None => Pass::new(&Integrator::new(scene, settings), camera, None, pass).sample_pixel(x, y, k, rec),
+        Some(env) => Pass::new(&Integrator::with_sky(scene, settings, env), camera, None, pass).sample_pixel(x, y, k, rec),
+    }
+    .0
 }

@@ -61,6 +61,9 @@ pub struct RenderSettings {
     /// `aperture > 0`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub focus_distance: Option<f32>,
+    /// Bloom, a glow around bright pixels added to the finished image (off by default).
+    #[serde(skip_serializing_if = "BloomSettings::is_off")]
+    pub bloom: BloomSettings,
 }
 
 impl Default for RenderSettings {
@@ -86,6 +89,7 @@ impl Default for RenderSettings {
             seed: 0,
             aperture: 0.0,
             focus_distance: None,
+            bloom: BloomSettings::default(),
         }
     }
 }
@@ -141,7 +145,7 @@ impl RenderSettings {
                 return bad(format!("{what} {n} is out of range (0 to {MAX_SAMPLES})"));
             }
         }
-        Ok(())
+        self.bloom.validate()
     }
 
     /// The options the scene's surface queries read ([`ShadingOptions`]).
@@ -217,6 +221,57 @@ impl ShadingModel {
     /// Whether it has a specular highlight term.
     pub fn has_highlight(self) -> bool {
         !matches!(self, ShadingModel::Lambert)
+    }
+}
+
+/// Bloom: a post-process on the linear image (the film's values, before clamping and
+/// encoding) that adds a glow around bright pixels. The bright pass keeps what exceeds
+/// `threshold` (per channel, `max(c - threshold, 0)`), a separable Gaussian of `radius`
+/// pixels blurs it, and `strength` times the blur is added to the image. Off while `strength`
+/// is 0 (the default): the image keeps every bit.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BloomSettings {
+    /// Values above this (per channel, linear) glow. Default 1, the brightest an 8-bit image
+    /// shows.
+    pub threshold: f32,
+    /// The Gaussian's reach in pixels: it spans `-ceil(radius)..=ceil(radius)` with standard
+    /// deviation `radius / 3`. 0 to [`MAX_BLOOM_RADIUS`]. Default 8.
+    pub radius: f32,
+    /// Factor on the blurred bright pass added to the image; 0 (the default) turns bloom off.
+    pub strength: f32,
+}
+
+/// Largest accepted [`BloomSettings::radius`], in pixels.
+pub const MAX_BLOOM_RADIUS: f32 = 512.0;
+
+impl Default for BloomSettings {
+    /// Off (strength 0), threshold 1, radius 8 pixels.
+    fn default() -> Self {
+        BloomSettings { threshold: 1.0, radius: 8.0, strength: 0.0 }
+    }
+}
+
+impl BloomSettings {
+    /// Whether bloom leaves the image as it is (strength 0).
+    pub fn is_off(&self) -> bool {
+        self.strength == 0.0
+    }
+
+    /// Check the values; the message names the command line's flag (the scene file's key is
+    /// the flag's last word, in `[render.bloom]`).
+    pub fn validate(&self) -> Result<(), crate::Error> {
+        let bad = |m: String| Err(crate::Error::Invalid(m));
+        if !(self.threshold.is_finite() && self.threshold >= 0.0) {
+            return bad(format!("--bloom-threshold {}: must be a finite number, at least 0", self.threshold));
+        }
+        if !(self.radius.is_finite() && (0.0..=MAX_BLOOM_RADIUS).contains(&self.radius)) {
+            return bad(format!("--bloom-radius {}: must be 0 to {MAX_BLOOM_RADIUS} pixels", self.radius));
+        }
+        if !(self.strength.is_finite() && self.strength >= 0.0) {
+            return bad(format!("--bloom-strength {}: must be a finite number, at least 0", self.strength));
+        }
+        Ok(())
     }
 }
 

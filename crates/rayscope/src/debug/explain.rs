@@ -10,7 +10,7 @@
 //!         x sum over rays r:    weight(r) x d(r)                        (d: 1 unless r's surface transmits)
 //!         x [ sum over lights l: 1/n(l) x sum over points i of l:
 //!                 arrived_i x light_i x (kd cos_i + ks highlight_i) ]   (a ray that hits, shading on)
-//!           or the background (a ray that misses), or kd (shading off)
+//!           or the background or the environment map (a ray that misses), or kd (shading off)
 //! ```
 //!
 //! and [`PixelTrace::explain`] lists those terms, grouped per ray and light (the points of a
@@ -24,6 +24,7 @@ use std::fmt;
 use serde::Serialize;
 
 use crate::debug::pixel::{PixelTrace, SampleTrace};
+use crate::environment::EnvironmentLookup;
 use crate::math::Color;
 use crate::record::{LightTerm, RayKind, RecordedRay, StoppedBranch};
 use crate::settings::ShadingModel;
@@ -38,6 +39,8 @@ pub enum TermKind {
     Specular,
     /// A ray that hit nothing returns the background colour.
     Background,
+    /// A ray that hit nothing returns the environment map's radiance in its direction.
+    Environment,
     /// With shading off, a hit returns its diffuse colour `kd` as it is.
     UnshadedKd,
 }
@@ -49,6 +52,7 @@ impl TermKind {
             TermKind::Diffuse => "diffuse",
             TermKind::Specular => "specular",
             TermKind::Background => "background",
+            TermKind::Environment => "environment",
             TermKind::UnshadedKd => "kd (unshaded)",
         }
     }
@@ -110,6 +114,9 @@ pub struct Term {
     pub sample_weight: f32,
     /// `value x path_weight x sample_weight`: what it adds to the pixel.
     pub contribution: Color,
+    /// For an environment term: where the ray read the map.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub environment: Option<EnvironmentLookup>,
 }
 
 /// One factor by which a ray's weight is its parent's.
@@ -257,10 +264,12 @@ fn sample_terms(sample: &SampleTrace, i: usize, ray: &RecordedRay, out: &mut Vec
         path_weight,
         sample_weight: sample.weight,
         contribution: value * path_weight * sample.weight,
+        environment: None,
     };
     let color = Color::from(ray.color);
     if ray.hit.is_none() {
-        out.push(term(None, TermKind::Background, color, None, color));
+        let kind = if ray.environment.is_some() { TermKind::Environment } else { TermKind::Background };
+        out.push(Term { environment: ray.environment, ..term(None, kind, color, None, color) });
         return;
     }
     let Some(surface) = ray.surface else {
@@ -372,6 +381,18 @@ impl Term {
                 }
                 s
             }
+            (TermKind::Environment, _) => match &self.environment {
+                Some(e) => format!(
+                    "map texel ({}, {}) at u {} v {} (direction {}) = {}",
+                    e.texel[0],
+                    e.texel[1],
+                    num(e.uv[0]),
+                    num(e.uv[1]),
+                    rgb(Color::from(e.dir)),
+                    rgb(self.material)
+                ),
+                None => rgb(self.material),
+            },
             _ => rgb(self.material),
         }
     }

@@ -26,6 +26,11 @@
 //!
 //! [render]                      # any field of RenderSettings
 //! max_depth = 3
+//!
+//! [environment]                 # an equirectangular map that rays which miss return
+//! path = "sky.hdr"              # .hdr, .exr or .png, 2:1, relative to this file
+//! intensity = 1.0
+//! rotation = 0                  # degrees about +y
 //! ```
 
 use std::collections::HashMap;
@@ -35,6 +40,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Mesh, Scene, SceneSphere};
 use crate::camera::CameraDesc;
+use crate::environment::{Environment, EnvironmentDesc};
 use crate::error::{Error, Result};
 use crate::gradient::Gradient;
 use crate::io::mesh_file::{MeshFile, MeshFormat, load_mesh_file};
@@ -74,6 +80,10 @@ pub struct SceneDesc {
     /// Render settings the scene asks for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render: Option<RenderSettings>,
+    /// The environment map that rays which miss return (`[environment] path, intensity,
+    /// rotation`); `None`: the background colour.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub environment: Option<EnvironmentDesc>,
 }
 
 /// A motion during the exposure, a translation: linear from `start` (at shutter open) to
@@ -575,6 +585,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     );
     scene.camera_end = desc.camera_end.clone();
     scene.camera_path = motion(&desc.camera_motion)?;
+    scene.environment = desc.environment.as_ref().map(|e| Environment::load(e, &ctx.base_dir)).transpose()?;
     scene.warnings = warnings;
     scene.outline = outline;
     Ok(scene)
@@ -589,7 +600,8 @@ fn motion(d: &Option<MotionDesc>) -> Result<Option<MotionPath>> {
 /// table (`[camera]`) or in one of an array of tables (the third `[[light]]`).
 #[derive(Debug)]
 struct BadValue {
-    /// The table's name: `camera`, `camera_end`, `render`, `mesh`, `sphere` or `light`.
+    /// The table's name: `camera`, `camera_end`, `render`, `mesh`, `sphere`, `light` or
+    /// `environment`.
     table: &'static str,
     /// Which of the array of tables (0-based); `None` for a single table.
     index: Option<usize>,
@@ -696,6 +708,13 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
     }
     for (i, l) in desc.lights.iter().enumerate() {
         check_light(l).or_else(|e| bad("light", Some(i), e.key, e.message))?;
+    }
+    if let Some(e) = &desc.environment {
+        e.validate("intensity", "rotation").or_else(|err| {
+            let intensity_ok = e.intensity.is_finite() && e.intensity >= 0.0;
+            let key = if intensity_ok { "rotation" } else { "intensity" };
+            bad("environment", None, key, &err.to_string())
+        })?;
     }
     Ok(())
 }

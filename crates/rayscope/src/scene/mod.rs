@@ -28,6 +28,7 @@ pub use crate::ray::Ray;
 
 use crate::bvh::{BvhStats, LoggedQuery, NoObserver, NodeLog, TraversalObserver, WideBox, WideRef};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
+use crate::environment::Environment;
 use crate::error::Result;
 use crate::geometry::Aabb;
 use crate::io::file::read_text;
@@ -149,6 +150,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Render settings the scene asks for (overridable by the user).
     pub render: Option<RenderSettings>,
+    /// The environment map rays that miss return (`None`: the background colour).
+    pub environment: Option<Environment>,
     /// Global primitive id to primitive.
     pub prims: Vec<PrimRef>,
     /// Shapes and BVH.
@@ -222,6 +225,7 @@ impl Scene {
             textures,
             lights,
             render,
+            environment: None,
             prims,
             geometry,
             build_time,
