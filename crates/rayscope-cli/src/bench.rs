@@ -91,9 +91,6 @@ pub const ROWS: &[RowSpec] = &[
     },
 ];
 
-/// `report_ms` of a row the course's report has no figure for: shown as `–` (`null` in JSON).
-pub const NOT_IN_REPORT: f64 = f64::NAN;
-
 /// A row's course figure as the table and the CSV show it.
 fn report_figure(ms: f64) -> String {
     if ms.is_nan() { "–".into() } else { ms.to_string() }

@@ -18,8 +18,8 @@ mod bloom_args;
 mod bvh_obj;
 mod bvh_split;
 mod compare;
-mod export;
 mod env_args;
+mod export;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};

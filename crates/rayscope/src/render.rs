@@ -386,7 +386,9 @@ pub fn trace_pixel<R: RayRecorder>(
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
     match &scene.environment {
         None => Pass::new(&Integrator::new(scene, settings), camera, None, pass).sample_pixel(x, y, k, rec),
-        Some(env) => Pass::new(&Integrator::with_sky(scene, settings, env), camera, None, pass).sample_pixel(x, y, k, rec),
+        Some(env) => {
+            Pass::new(&Integrator::with_sky(scene, settings, env), camera, None, pass).sample_pixel(x, y, k, rec)
+        }
     }
     .0
 }

@@ -18,9 +18,10 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::material::{Material, MaterialDesc, Texture};
+use crate::motion::MotionPath;
 use crate::output::write_file;
 use crate::scene::desc::MotionDesc;
-use crate::scene::{MeshDesc, Motion, Scene, SceneDesc, SphereDesc};
+use crate::scene::{MeshDesc, Scene, SceneDesc, SphereDesc};
 
 /// The mesh format of an export.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -49,7 +50,7 @@ pub(crate) struct OutFile {
 
 /// The meshes of a scene that share one motion (none, or the same translation), by index.
 pub(crate) struct MeshGroup {
-    pub motion: Option<Motion>,
+    pub motion: Option<MotionPath>,
     pub meshes: Vec<usize>,
 }
 
@@ -59,7 +60,7 @@ fn group_by_motion(scene: &Scene) -> Vec<MeshGroup> {
     for (i, m) in scene.meshes.iter().enumerate() {
         match groups.iter_mut().find(|g| g.motion == m.motion) {
             Some(g) => g.meshes.push(i),
-            None => groups.push(MeshGroup { motion: m.motion, meshes: vec![i] }),
+            None => groups.push(MeshGroup { motion: m.motion.clone(), meshes: vec![i] }),
         }
     }
     groups.retain(|g| !g.meshes.is_empty());
@@ -134,6 +135,8 @@ pub(crate) fn material_desc(m: &Material, textures: &mut TextureFiles) -> Result
         transparency: Some(m.transparency),
         texture: m.texture.map(|t| textures.name(t).map(PathBuf::from)).transpose()?,
         glossiness: m.glossiness,
+        model: m.model,
+        gradient: m.gradient.as_ref().map(|g| g.keys().to_vec()),
     })
 }
 
@@ -147,6 +150,24 @@ pub(crate) fn material_names(scene: &Scene) -> Vec<String> {
         names.push(name);
     }
     names
+}
+
+/// The scene's environment map as the exported scene file names it: the map's file copied
+/// beside it (read through the same guards as every input), so the folder is whole.
+fn environment_desc(
+    scene: &Scene,
+    stem: &str,
+    files: &mut Vec<OutFile>,
+) -> Result<Option<crate::environment::EnvironmentDesc>> {
+    let Some(env) = &scene.environment else { return Ok(None) };
+    let path = &env.desc.path;
+    let mut bytes = Vec::new();
+    let mut file = crate::io::file::open(path)?;
+    std::io::Read::read_to_end(&mut file, &mut bytes).map_err(|e| file.error(e))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("hdr").to_ascii_lowercase();
+    let name = format!("{stem}-environment.{ext}");
+    files.push(OutFile { name: name.clone(), bytes });
+    Ok(Some(crate::environment::EnvironmentDesc { path: PathBuf::from(name), ..env.desc.clone() }))
 }
 
 /// Write `scene` into folder `dir` as `stem.toml` and mesh files of `format` (see the module).
@@ -167,7 +188,7 @@ pub fn export_scene(scene: &Scene, format: ExportFormat, dir: &Path, stem: &str)
         meshes.push(MeshDesc {
             name: Some(name.clone()),
             path: Some(PathBuf::from(mesh_file)),
-            motion: group.motion.map(|m| MotionDesc { start: m.start.into(), end: m.end.into() }),
+            motion: group.motion.as_ref().map(MotionDesc::from),
             ..MeshDesc::default()
         });
     }
@@ -177,7 +198,7 @@ pub fn export_scene(scene: &Scene, format: ExportFormat, dir: &Path, stem: &str)
             center: s.center.into(),
             radius: s.radius,
             material: material_desc(&scene.materials[s.material as usize], &mut textures)?,
-            motion: s.motion.map(|m| MotionDesc { start: m.start.into(), end: m.end.into() }),
+            motion: s.motion.as_ref().map(MotionDesc::from),
         });
     }
     let desc = SceneDesc {
@@ -187,6 +208,8 @@ pub fn export_scene(scene: &Scene, format: ExportFormat, dir: &Path, stem: &str)
         spheres,
         lights: scene.lights.clone(),
         camera_end: scene.camera_end.clone(),
+        camera_motion: scene.camera_path.as_ref().map(MotionDesc::from),
+        environment: environment_desc(scene, stem, &mut files)?,
         render: scene.render.clone(),
     };
     files.append(&mut textures.into_files());

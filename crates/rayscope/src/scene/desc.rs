@@ -108,6 +108,17 @@ pub enum MotionDesc {
     },
 }
 
+impl From<&MotionPath> for MotionDesc {
+    /// The description that loads back as `path`: today's `start`/`end` form for the linear
+    /// motion of two keys at 0 and 1, else its keys.
+    fn from(path: &MotionPath) -> MotionDesc {
+        match path.as_linear() {
+            Some((start, end)) => MotionDesc::Linear { start: start.into(), end: end.into() },
+            None => MotionDesc::Keys { keys: path.keys().to_vec(), interpolation: path.interpolation() },
+        }
+    }
+}
+
 impl MotionDesc {
     /// The path this describes (its values were checked by [`MotionDesc::path`]'s errors).
     pub fn path(&self) -> Result<MotionPath, String> {

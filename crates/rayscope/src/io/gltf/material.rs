@@ -92,6 +92,7 @@ pub fn phong_from_pbr(name: String, pbr: &Pbr) -> Material {
         transparency,
         texture: None,
         glossiness: None,
+        ..Material::default()
     }
 }
 
@@ -147,6 +148,7 @@ impl PhongExtras {
             transparency: self.transparency,
             texture: None,
             glossiness: self.glossiness,
+            ..Material::default()
         })
     }
 }
