@@ -253,6 +253,11 @@ fn hostile_gltf_files_are_errors_naming_the_file_and_element() {
     long["accessors"][2]["count"] = json!(30);
     let e = gltf_error(long, "long.gltf");
     assert!(e.contains("accessor 2 (TEXCOORD_0)") && e.contains("reach past"), "{e}");
+    // An offset so large that the arithmetic would overflow.
+    let mut huge = good();
+    huge["accessors"][0]["byteOffset"] = json!(u64::MAX);
+    let e = gltf_error(huge, "huge.gltf");
+    assert!(e.contains("huge.gltf"), "{e}");
     // A view past its buffer.
     let mut view = good();
     view["bufferViews"][2]["byteOffset"] = json!(1000);

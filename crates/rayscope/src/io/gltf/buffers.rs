@@ -202,9 +202,10 @@ pub fn read_accessor(accessor: &gltf::Accessor, expect: &Expect, buffers: &[Vec<
     }
     let count = accessor.count();
     // The last element ends inside the view.
+    let first_end = accessor.offset().checked_add(element);
     let end = count
         .checked_sub(1)
-        .map(|last| last.checked_mul(stride).and_then(|b| b.checked_add(accessor.offset() + element)))
+        .map(|last| last.checked_mul(stride).zip(first_end).and_then(|(b, e)| b.checked_add(e)))
         .unwrap_or(Some(0));
     match end {
         Some(end) if end <= bytes.len() => {}
