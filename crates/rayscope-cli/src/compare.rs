@@ -61,7 +61,9 @@ pub(crate) fn cmd_compare(mut args: CompareArgs) -> Result<ExitCode> {
     }
     let pool = thread_pool(args.scene.threads)?;
     let out = pool.install(|| render(&scene, &settings, &|_| {}));
-    let image = out.film.to_image();
+    let mut image = out.film.to_image();
+    // Ours as `rayscope render` writes it: with bloom when it is on.
+    rayscope::post::bloom::apply_to_image(&mut image, &settings.bloom);
     if let Some(path) = &args.ours {
         write_image(&image, path, encoding(args.srgb))?;
     }

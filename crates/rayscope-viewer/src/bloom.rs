@@ -83,3 +83,32 @@ pub fn panel(ui: &mut Ui, st: &mut ViewerState) {
         }
     });
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn film() -> FloatImage {
+        let mut data = vec![0.2; 8 * 6 * 3];
+        data[(3 * 8 + 4) * 3] = 5.0;
+        FloatImage { width: 8, height: 6, channels: 3, data }
+    }
+
+    #[test]
+    fn off_shows_and_saves_the_film_and_on_each_layer_is_the_library_s() {
+        let off = BloomSettings::default();
+        assert_eq!(frame_images(film(), &off, BloomLayer::Bright), (film(), film()));
+        let on = BloomSettings { threshold: 1.0, radius: 2.0, strength: 0.5 };
+        let pixels: Vec<Color> = film().data.chunks_exact(3).map(Color::from_slice).collect();
+        let layers = bloom::layers(&pixels, 8, 6, &on);
+        let mut bloomed = film();
+        bloom::apply_to_image(&mut bloomed, &on);
+        for (layer, want) in [(BloomLayer::Bright, &layers.bright), (BloomLayer::Blurred, &layers.blurred)] {
+            let (saved, shown) = frame_images(film(), &on, layer);
+            assert_eq!(saved, bloomed, "the saved image has the glow whatever the layer");
+            let shown: Vec<Color> = shown.data.chunks_exact(3).map(Color::from_slice).collect();
+            assert_eq!(&shown, want);
+        }
+        assert_eq!(frame_images(film(), &on, BloomLayer::Image).1, bloomed);
+    }
+}

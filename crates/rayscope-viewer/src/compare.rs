@@ -74,7 +74,8 @@ impl CompareViews {
     /// the image's); the error says what went wrong, naming the file.
     pub fn new(path: &Path, scene: &Scene, settings: &RenderSettings) -> Result<CompareViews, String> {
         let theirs = read_image(path).map_err(|e| e.to_string())?;
-        let ours_float = render(scene, settings, &|_| {}).film.to_image();
+        let mut ours_float = render(scene, settings, &|_| {}).film.to_image();
+        rayscope::post::bloom::apply_to_image(&mut ours_float, &settings.bloom);
         let ours = CompareImage::from_render(
             &ours_float,
             theirs.depth,

@@ -2,9 +2,9 @@
 //! radiance a ray that hits nothing returns in place of the background colour.
 //!
 //! The direction convention (right-handed, +y up, as the course's scenes): the map's centre
-//! (`u = 0.5`, `v = 0.5`) lies along -z, the direction the default camera looks; `u` grows to
-//! the right as seen from that camera (+x at `u = 0.75`, +z at the seam `u = 0` and `1`, -x at
-//! `u = 0.25`); the top row (`v = 0`) is +y, the bottom row -y. A rotation of `rotation`
+//! (`u = 0.5`, `v = 0.5`) lies along -z, the direction the built-in Cornell box is seen along;
+//! `u` grows to the right as seen looking that way (+x at `u = 0.75`, +z at the seam `u = 0`
+//! and `1`, -x at `u = 0.25`); the top row (`v = 0`) is +y, the bottom row -y. A rotation of `rotation`
 //! degrees turns the map about +y, right-handed: at +90 its centre moves from -z to -x.
 //!
 //! The map is not a light source: shadow rays and direct lighting do not see it, only rays that

@@ -93,8 +93,17 @@ fn scatter_rows(layer: &[Color], width: usize, weights: &[f32]) -> Vec<Color> {
             if c == Color::ZERO {
                 continue;
             }
+            let first = i as i64 - reach;
+            if first >= 0 && i as i64 + reach < width as i64 {
+                // Inside the row: no weight reaches past its ends (the same sums, in the same
+                // order, as the mirrored loop, without its index folding).
+                for (o, &wk) in out[first as usize..].iter_mut().zip(weights) {
+                    *o += wk * c;
+                }
+                continue;
+            }
             for (k, &wk) in weights.iter().enumerate() {
-                out[mirror(i as i64 + k as i64 - reach, width)] += wk * c;
+                out[mirror(first + k as i64, width)] += wk * c;
             }
         }
     });
