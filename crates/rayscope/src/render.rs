@@ -182,6 +182,7 @@ fn sample_range(first: u32, pass: SamplePass) -> u32 {
 /// (`still`: a still camera's ray generator, made once per pass; a moving camera's is made
 /// per sample), made by `through` from the pose's generator, the pixel and the jitter (a
 /// pinhole's ray, or a lens's: generic, so the pinhole's code has no lens in it).
+#[inline(always)]
 fn camera_ray(
     settings: &RenderSettings,
     camera: &CameraMotion,
@@ -293,7 +294,7 @@ impl<'a, S: Sky> Pass<'a, S> {
 
     /// The pinhole's camera ray of pixel `(x, y)` for the sample `sampler` draws (the packets'
     /// rays: [`Pass::packets`] holds only without a lens).
-    #[inline]
+    #[inline(always)]
     fn pinhole_ray(&self, x: u32, y: u32, sampler: &PixelSampler) -> Ray {
         camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, RayGenerator::ray)
     }
