@@ -91,8 +91,7 @@ impl<'a> Integrator<'a> {
 impl<'a, S: Sky> Integrator<'a, S> {
     /// An integrator whose misses return what `sky` says.
     pub fn with_sky(scene: &'a Scene, settings: &'a RenderSettings, sky: S) -> Self {
-        let phong = |m: Option<ShadingModel>| m.unwrap_or(settings.shading_model) == ShadingModel::Phong;
-        let models = !scene.materials.iter().all(|m| phong(m.model));
+        let models = scene.materials.iter().any(|m| m.shading_model(settings.shading_model) != ShadingModel::Phong);
         Integrator { scene, settings, shading: settings.shading_options(), models, sky }
     }
 
@@ -110,22 +109,6 @@ impl<'a, S: Sky> Integrator<'a, S> {
         let mut logs: [TraversalLog; PACKET] = Default::default();
         let hits = self.scene.intersect_packet_counted(rays, &mut logs);
         self.trace(&rays[lane], hits[lane], Some(&logs[lane]), RayKind::Camera, 0, Color::ONE, ctx)
-    }
-
-    /// [`Integrator::trace`] for a ray whose closest hit is found here, the recorder told what
-    /// the traversal entered: how a recording integrator casts the rays that the renderer
-    /// traces alone.
-    fn observed<R: RayRecorder>(
-        &self,
-        ray: &Ray,
-        kind: RayKind,
-        depth: u32,
-        weight: Color,
-        ctx: &mut PathContext<R>,
-    ) -> Color {
-        let mut log = TraversalLog::default();
-        let hit = self.scene.intersect_counted(ray, &mut log);
-        self.trace(ray, hit, Some(&log), kind, depth, weight, ctx)
     }
 
     /// [`Integrator::li`] for a ray whose closest hit is already known (`hit`, which must be
@@ -156,7 +139,9 @@ impl<'a, S: Sky> Integrator<'a, S> {
         ctx: &mut PathContext<R>,
     ) -> Color {
         if R::RECORDS {
-            return self.observed(ray, kind, depth, weight, ctx);
+            let mut log = TraversalLog::default();
+            let hit = self.scene.intersect_counted(ray, &mut log);
+            return self.trace(ray, hit, Some(&log), kind, depth, weight, ctx);
         }
         self.trace(ray, self.scene.intersect(ray), None, kind, depth, weight, ctx)
     }
@@ -352,9 +337,9 @@ impl<'a, S: Sky> Integrator<'a, S> {
     ) -> Color {
         let mut sum = Color::ZERO;
         let n = self.settings.light_samples;
-        // The material's own model wins over the scene-wide one; resolved once per hit.
+        // Resolved once per hit.
         let model = if MODELS {
-            self.scene.materials[si.material as usize].model.unwrap_or(self.settings.shading_model)
+            self.scene.materials[si.material as usize].shading_model(self.settings.shading_model)
         } else {
             ShadingModel::Phong
         };

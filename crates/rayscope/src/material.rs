@@ -33,6 +33,14 @@ pub struct Material {
     pub gradient: Option<Gradient>,
 }
 
+impl Material {
+    /// The model that shades it under the scene-wide `default`: its own wins.
+    #[inline]
+    pub fn shading_model(&self, default: ShadingModel) -> ShadingModel {
+        self.model.unwrap_or(default)
+    }
+}
+
 impl Default for Material {
     /// Assimp's default OBJ material, which the course used for meshes without an MTL:
     /// grey 0.6 diffuse, no specular.
