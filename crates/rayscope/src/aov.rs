@@ -10,13 +10,14 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::bvh::{PACKET, TraversalStats};
-use crate::camera::{Camera, RayGenerator};
+use crate::camera::{Camera, CameraMotion, RayGenerator};
 use crate::film::FloatImage;
 use crate::math::Vec2;
 use crate::ray::Ray;
-use crate::render::RenderProgress;
-use crate::scene::{Hit, Scene};
-use crate::settings::{RenderSettings, ShadingOptions};
+use crate::record::RayRecorder;
+use crate::render::{RenderProgress, trace_pixel};
+use crate::scene::{Hit, Scene, TextureLod};
+use crate::settings::{RenderSettings, ShadingOptions, TextureFilter};
 
 /// Arbitrary output variables: per-pixel facts about the first hit of the camera ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -37,13 +38,18 @@ pub enum Aov {
     /// row's neighbouring pixels, as rendering traces camera rays): the width of the wide
     /// tree times the nodes entered, the traversal heat map.
     NodesVisited,
+    /// The mip level trilinear filtering reads ([`crate::settings::TextureFilter::Trilinear`],
+    /// whatever the settings' filter): of the first textured hit along sample 0 of the pixel,
+    /// traced by the renderer with its ray cone, through mirrors and transparent surfaces
+    /// (fractional: between two levels it blends them); -1 where no texture was read.
+    MipLevel,
 }
 
 impl Aov {
     /// Channels per pixel.
     pub fn channels(self) -> u32 {
         match self {
-            Aov::Depth | Aov::PrimId | Aov::NodesVisited => 1,
+            Aov::Depth | Aov::PrimId | Aov::NodesVisited | Aov::MipLevel => 1,
             Aov::Position | Aov::Normal | Aov::Albedo => 3,
         }
     }
@@ -59,7 +65,12 @@ pub fn render_aov(
 ) -> FloatImage {
     let rays = RayGenerator::new(camera, settings.width, settings.height);
     let shading = settings.shading_options();
+    let trilinear = RenderSettings { texture_filter: TextureFilter::Trilinear, ..settings.clone() };
+    let still = CameraMotion::still(camera.clone());
     let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x0, x1, y| {
+        if aov == Aov::MipLevel {
+            return (x0..x1).map(|x| [mip_level(scene, &trilinear, &still, x, y), 0.0, 0.0]).collect();
+        }
         let run: Vec<_> = (x0..x1).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
         let mut stats = [TraversalStats::default(); PACKET];
         let hits = scene.intersect_packet_counted(&run, &mut stats);
@@ -81,6 +92,25 @@ pub fn render_aov(
     FloatImage { width: settings.width, height: settings.height, channels, data }
 }
 
+/// The mip level sample 0 of pixel `(x, y)` reads at its first textured hit, as the renderer
+/// traces it with `settings` (trilinear); -1 where it reads none.
+fn mip_level(scene: &Scene, settings: &RenderSettings, camera: &CameraMotion, x: u32, y: u32) -> f32 {
+    let mut first = FirstLod(None);
+    trace_pixel(scene, settings, camera, x, y, 0, &mut first);
+    first.0.map_or(-1.0, |lod| lod.level)
+}
+
+/// A recorder that keeps the first trilinear texture lookup's level of detail, and nothing
+/// else (it does not ask for the debugger's records).
+struct FirstLod(Option<TextureLod>);
+
+impl RayRecorder for FirstLod {
+    const RECORDS: bool = false;
+    fn texture_lod(&mut self, lod: &TextureLod) {
+        self.0.get_or_insert(*lod);
+    }
+}
+
 /// The value of `aov` for the camera ray `ray` whose closest hit is `hit`, found by a traversal
 /// that `stats` counted.
 fn pixel_value(
@@ -93,6 +123,7 @@ fn pixel_value(
 ) -> [f32; 3] {
     let nan = [f32::NAN; 3];
     match (aov, hit) {
+        (Aov::MipLevel, _) => unreachable!("the mip level is traced by the renderer, not read at the first hit"),
         (Aov::NodesVisited, _) => [stats.nodes_visited as f32, 0.0, 0.0],
         (Aov::Depth, None) => nan,
         (Aov::Depth, Some(h)) => [h.t, 0.0, 0.0],

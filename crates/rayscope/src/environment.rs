@@ -235,7 +235,7 @@ mod tests {
 
     fn env(width: u32, texels: Vec<Color>, rotation: f32) -> Environment {
         let desc = EnvironmentDesc { path: "test.hdr".into(), rotation, ..EnvironmentDesc::default() };
-        Environment::from_texture(desc, Texture { width, height: width / 2, texels }).unwrap()
+        Environment::from_texture(desc, Texture::new(width, width / 2, texels)).unwrap()
     }
 
     #[test]
@@ -281,10 +281,10 @@ mod tests {
     #[test]
     fn bad_maps_and_values_are_errors_naming_the_file() {
         let desc = EnvironmentDesc { path: "sky.png".into(), ..EnvironmentDesc::default() };
-        let square = Texture { width: 4, height: 4, texels: vec![Color::ZERO; 16] };
+        let square = Texture::new(4, 4, vec![Color::ZERO; 16]);
         let err = Environment::from_texture(desc.clone(), square).unwrap_err().to_string();
         assert!(err.contains("sky.png") && err.contains("4x4"), "{err}");
-        let nan = Texture { width: 2, height: 1, texels: vec![Color::ZERO, Color::new(0.0, f32::NAN, 0.0)] };
+        let nan = Texture::new(2, 1, vec![Color::ZERO, Color::new(0.0, f32::NAN, 0.0)]);
         let err = Environment::from_texture(desc.clone(), nan).unwrap_err().to_string();
         assert!(err.contains("texel (1, 0)"), "{err}");
         let negative = EnvironmentDesc { intensity: -1.0, ..desc.clone() };

@@ -8,6 +8,8 @@
 //! below [`RenderSettings::adc_bailout`] is not cast.
 
 use crate::bvh::{PACKET, TraversalLog};
+use crate::camera::Camera;
+use crate::cone::{Footprint, NoCone, RayCone};
 use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
@@ -64,7 +66,7 @@ impl<'r, R: RayRecorder> PathContext<'r, R> {
 
 /// Traces rays through one scene with one set of settings; rays that miss return what `S`
 /// says ([`crate::sky`]: the background colour, or an environment map).
-pub struct Integrator<'a, S: Sky = Background> {
+pub struct Integrator<'a, S: Sky = Background, C: Footprint = NoCone> {
     /// The scene.
     pub scene: &'a Scene,
     /// The settings.
@@ -77,6 +79,9 @@ pub struct Integrator<'a, S: Sky = Background> {
     models: bool,
     /// What rays that miss return.
     pub sky: S,
+    /// The footprint camera rays start with: [`NoCone`], or a [`RayCone`] when textures are
+    /// filtered trilinearly ([`Integrator::with_cones`]).
+    camera_cone: C,
 }
 
 impl<'a> Integrator<'a> {
@@ -92,13 +97,24 @@ impl<'a, S: Sky> Integrator<'a, S> {
     /// An integrator whose misses return what `sky` says.
     pub fn with_sky(scene: &'a Scene, settings: &'a RenderSettings, sky: S) -> Self {
         let models = scene.materials.iter().any(|m| m.shading_model(settings.shading_model) != ShadingModel::Phong);
-        Integrator { scene, settings, shading: settings.shading_options(), models, sky }
+        Integrator { scene, settings, shading: settings.shading_options(), models, sky, camera_cone: NoCone }
     }
 
+    /// This integrator with rays that carry a footprint, starting from `camera`'s
+    /// ([`crate::cone`]): trilinear texture lookups then read the mip level of the ray's
+    /// footprint.
+    pub fn with_cones(self, camera: &Camera) -> Integrator<'a, S, RayCone> {
+        let camera_cone = RayCone::camera(camera.tan_half_fov(), self.settings.height);
+        let Integrator { scene, settings, shading, models, sky, .. } = self;
+        Integrator { scene, settings, shading, models, sky, camera_cone }
+    }
+}
+
+impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// The colour arriving along `ray`, cast for reason `kind` at recursion `depth`, as a ray
     /// of weight 1 (a camera ray's).
     pub fn li<R: RayRecorder>(&self, ray: &Ray, kind: RayKind, depth: u32, ctx: &mut PathContext<R>) -> Color {
-        self.cast(ray, kind, depth, Color::ONE, ctx)
+        self.cast(ray, kind, depth, Color::ONE, self.camera_cone, ctx)
     }
 
     /// The colour arriving along camera ray `rays[lane]`, traced as the renderer traces a
@@ -108,7 +124,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
     pub fn li_in_packet<R: RayRecorder>(&self, rays: &[Ray], lane: usize, ctx: &mut PathContext<R>) -> Color {
         let mut logs: [TraversalLog; PACKET] = Default::default();
         let hits = self.scene.intersect_packet_counted(rays, &mut logs);
-        self.trace(&rays[lane], hits[lane], Some(&logs[lane]), RayKind::Camera, 0, Color::ONE, ctx)
+        self.trace(&rays[lane], hits[lane], Some(&logs[lane]), RayKind::Camera, 0, Color::ONE, self.camera_cone, ctx)
     }
 
     /// [`Integrator::li`] for a ray whose closest hit is already known (`hit`, which must be
@@ -124,32 +140,34 @@ impl<'a, S: Sky> Integrator<'a, S> {
         depth: u32,
         ctx: &mut PathContext<R>,
     ) -> Color {
-        self.trace(ray, hit, None, kind, depth, Color::ONE, ctx)
+        self.trace(ray, hit, None, kind, depth, Color::ONE, self.camera_cone, ctx)
     }
 
-    /// A ray of `weight` (a camera ray's is 1): what [`Integrator::trace`] gives for its
-    /// closest hit, found here (observed for a recorder, which is told what the traversal
-    /// entered).
+    /// A ray of `weight` (a camera ray's is 1) and footprint `cone`: what
+    /// [`Integrator::trace`] gives for its closest hit, found here (observed for a recorder,
+    /// which is told what the traversal entered).
     fn cast<R: RayRecorder>(
         &self,
         ray: &Ray,
         kind: RayKind,
         depth: u32,
         weight: Color,
+        cone: C,
         ctx: &mut PathContext<R>,
     ) -> Color {
         if R::RECORDS {
             let mut log = TraversalLog::default();
             let hit = self.scene.intersect_counted(ray, &mut log);
-            return self.trace(ray, hit, Some(&log), kind, depth, weight, ctx);
+            return self.trace(ray, hit, Some(&log), kind, depth, weight, cone, ctx);
         }
-        self.trace(ray, self.scene.intersect(ray), None, kind, depth, weight, ctx)
+        self.trace(ray, self.scene.intersect(ray), None, kind, depth, weight, cone, ctx)
     }
 
     /// The colour arriving along `ray`, whose closest hit is `hit`, for a ray of `weight`: per
     /// colour channel, the product of the factors by which its light reaches the pixel (1 for
-    /// a camera ray; the sample's share of the pixel is not counted, as in POV-Ray). `log`,
-    /// when recording, holds what the traversal that found `hit` entered.
+    /// a camera ray; the sample's share of the pixel is not counted, as in POV-Ray), whose
+    /// footprint where it starts is `cone`. `log`, when recording, holds what the traversal
+    /// that found `hit` entered.
     // Inlined into its two callers, as the public entry points were before it took their
     // place: called, it cost the Cornell box 2.5% more instructions.
     #[allow(clippy::too_many_arguments)]
@@ -162,6 +180,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
         kind: RayKind,
         depth: u32,
         weight: Color,
+        cone: C,
         ctx: &mut PathContext<R>,
     ) -> Color {
         ctx.recorder.begin_ray(kind, depth, ray);
@@ -178,7 +197,16 @@ impl<'a, S: Sky> Integrator<'a, S> {
                 self.sky.miss(ray, self.settings, ctx.recorder)
             }
             Some(hit) => {
-                let si = self.scene.surface(ray, &hit, &self.shading);
+                let cone = cone.arrive(hit.t, || self.scene.curvature(&hit, &self.shading));
+                let si = if C::CONES {
+                    let seen = self.scene.surface_in_cone(ray, &hit, &self.shading, cone.width());
+                    if let Some(lod) = &seen.lod {
+                        ctx.recorder.texture_lod(lod);
+                    }
+                    seen.si
+                } else {
+                    self.scene.surface(ray, &hit, &self.shading)
+                };
                 if R::RECORDS {
                     ctx.recorder.hit(Some(RecordedHit {
                         t: hit.t,
@@ -189,7 +217,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
                         shading_normal: si.shading_normal.to_array(),
                     }));
                 }
-                self.shade(ray, &si, depth, weight, ctx)
+                self.shade(ray, &si, depth, weight, cone, ctx)
             }
         };
         ctx.recorder.end_ray(color);
@@ -206,6 +234,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
         si: &SurfaceInteraction,
         depth: u32,
         weight: Color,
+        cone: C,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let s = self.settings;
@@ -226,7 +255,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
             // The reflection reaches the pixel through `ks`, and through the opacity by which
             // the blend below scales the surface's colour.
             let reflected = if transmits { weight * mat.ks * mat.transparency } else { weight * mat.ks };
-            color += mat.ks * self.reflection(ray, si, depth, reflected, ctx);
+            color += mat.ks * self.reflection(ray, si, depth, reflected, cone.reflected(), ctx);
         }
         if transmits {
             // A branch that adaptive depth control stops adds nothing, as in POV-Ray: the
@@ -234,7 +263,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
             let transmitted = weight * (1.0 - mat.transparency);
             let behind = if self.worth_casting(RayKind::Transmission, 1, transmitted, ctx) {
                 let r = Ray::spawn(si.point, si.geo_normal, ray.dir, ray.time);
-                self.cast(&r, RayKind::Transmission, depth + 1, transmitted, ctx)
+                self.cast(&r, RayKind::Transmission, depth + 1, transmitted, cone.transmitted(), ctx)
             } else {
                 Color::ZERO
             };
@@ -270,13 +299,15 @@ impl<'a, S: Sky> Integrator<'a, S> {
     /// back above it (mirrored in the tangent plane), so they still carry light.
     ///
     /// `weight` is the whole reflection's; each of `n` glossy rays weighs `1/n` of it. A
-    /// reflection that adaptive depth control stops returns black.
+    /// reflection that adaptive depth control stops returns black. `cone` is the mirror
+    /// ray's footprint, which glossy rays share (their lobe's blur is not added to it).
     fn reflection<R: RayRecorder>(
         &self,
         ray: &Ray,
         si: &SurfaceInteraction,
         depth: u32,
         weight: Color,
+        cone: C,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let mat = &self.scene.materials[si.material as usize];
@@ -290,7 +321,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
                 return Color::ZERO;
             }
             let r = Ray::spawn(si.point, si.geo_normal, mirror, ray.time);
-            return self.cast(&r, RayKind::Reflection, depth + 1, weight, ctx);
+            return self.cast(&r, RayKind::Reflection, depth + 1, weight, cone, ctx);
         }
         let n = if ctx.glossy_split { 1 } else { self.settings.gloss_samples };
         let weight = weight / n as f32;
@@ -309,7 +340,7 @@ impl<'a, S: Sky> Integrator<'a, S> {
                 dir = (dir - 2.0 * below * si.geo_normal).normalize();
             }
             let r = Ray::spawn(si.point, si.geo_normal, dir, ray.time);
-            sum += self.cast(&r, RayKind::Glossy, depth + 1, weight, ctx);
+            sum += self.cast(&r, RayKind::Glossy, depth + 1, weight, cone, ctx);
         }
         ctx.glossy_split = was_split;
         sum / n as f32

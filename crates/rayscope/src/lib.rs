@@ -59,10 +59,13 @@ pub mod material;
 #[doc(hidden)]
 pub mod math;
 #[doc(hidden)]
+pub mod mipmap;
+#[doc(hidden)]
 pub mod ray;
 #[doc(hidden)]
 pub mod sampler;
 
+mod cone;
 mod error;
 mod filter;
 mod integrator;

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::gradient::{Gradient, GradientKey};
 use crate::math::{Color, Vec2};
+use crate::mipmap::{MipPyramid, TexelGrid};
 use crate::settings::{ShadingModel, TextureFilter};
 
 /// A Phong material in the course's form.
@@ -103,37 +104,64 @@ pub struct Texture {
     pub height: u32,
     /// Texels, row 0 at the top of the image.
     pub texels: Vec<Color>,
+    /// The mip pyramid, built by the first trilinear lookup ([`Texture::mips`]).
+    mips: MipCache,
 }
 
 impl Texture {
-    fn texel(&self, x: i64, y: i64) -> Color {
-        // Wrap (repeat) addressing, as OBJ texture coordinates outside [0,1] expect.
-        let x = x.rem_euclid(self.width as i64) as usize;
-        let y = y.rem_euclid(self.height as i64) as usize;
-        self.texels[y * self.width as usize + x]
+    /// A texture of `width x height` texels, row 0 at the top of the image.
+    pub fn new(width: u32, height: u32, texels: Vec<Color>) -> Texture {
+        Texture { width, height, texels, mips: MipCache::default() }
     }
 
-    /// The colour at `uv` (v = 0 at the bottom of the image, the OBJ convention).
+    /// Its texels as a grid (level 0 of its pyramid).
+    #[inline]
+    pub fn grid(&self) -> TexelGrid<'_> {
+        TexelGrid { width: self.width, height: self.height, texels: &self.texels }
+    }
+
+    /// The colour at `uv` (v = 0 at the bottom of the image, the OBJ convention). Trilinear
+    /// filtering needs a footprint ([`Texture::sample_lod`]); without one it reads level 0,
+    /// bilinearly.
+    #[inline]
     pub fn sample(&self, uv: Vec2, filter: TextureFilter) -> Color {
         if !uv.is_finite() {
             return Color::ZERO;
         }
-        let x = uv.x * self.width as f32;
-        let y = (1.0 - uv.y) * self.height as f32;
         match filter {
-            TextureFilter::Nearest => self.texel(x.floor() as i64, y.floor() as i64),
-            TextureFilter::Bilinear => {
-                let (fx, fy) = (x - 0.5, y - 0.5);
-                let (x0, y0) = (fx.floor(), fy.floor());
-                let (tx, ty) = (fx - x0, fy - y0);
-                let (x0, y0) = (x0 as i64, y0 as i64);
-                // Wrapping: a huge coordinate saturates to i64::MAX, whose neighbour overflowed.
-                let (x1, y1) = (x0.wrapping_add(1), y0.wrapping_add(1));
-                let top = self.texel(x0, y0).lerp(self.texel(x1, y0), tx);
-                let bottom = self.texel(x0, y1).lerp(self.texel(x1, y1), tx);
-                top.lerp(bottom, ty)
-            }
+            TextureFilter::Nearest => self.grid().nearest(uv),
+            TextureFilter::Bilinear | TextureFilter::Trilinear => self.grid().bilinear(uv),
         }
+    }
+
+    /// The trilinear lookup at `uv` for the fractional mip level `lod` (0 is the texture's
+    /// own texels; clamped to the pyramid), building the pyramid on first use.
+    pub fn sample_lod(&self, uv: Vec2, lod: f32) -> Color {
+        if !uv.is_finite() {
+            return Color::ZERO;
+        }
+        self.mips().trilinear(self.grid(), uv, lod)
+    }
+
+    /// Its mip pyramid, built once, by the first caller (threads that ask meanwhile wait).
+    pub fn mips(&self) -> &MipPyramid {
+        self.mips.0.get_or_init(|| MipPyramid::build(self.grid()))
+    }
+
+    /// The highest mip level: `floor(log2(max(width, height)))`, the 1x1 level.
+    pub fn top_level(&self) -> u32 {
+        self.width.max(self.height).max(1).ilog2()
+    }
+}
+
+/// A texture's lazily built pyramid. Derived data: it is not compared (two textures with the
+/// same texels are equal whether or not either has built it).
+#[derive(Clone, Debug, Default)]
+struct MipCache(std::sync::OnceLock<MipPyramid>);
+
+impl PartialEq for MipCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
     }
 }
 
@@ -142,7 +170,7 @@ mod tests {
     use super::*;
 
     fn checker() -> Texture {
-        Texture { width: 2, height: 2, texels: vec![Color::ONE, Color::ZERO, Color::ZERO, Color::ONE] }
+        Texture::new(2, 2, vec![Color::ONE, Color::ZERO, Color::ZERO, Color::ONE])
     }
 
     #[test]

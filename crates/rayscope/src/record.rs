@@ -12,7 +12,7 @@ use crate::bvh::{QueryKind, TraversalLog, WideRef};
 use crate::environment::EnvironmentLookup;
 use crate::math::{Color, Vec3A};
 use crate::ray::{Interval, Ray};
-use crate::scene::Scene;
+use crate::scene::{Scene, TextureLod};
 use crate::settings::ShadingModel;
 
 /// Why a ray was cast.
@@ -107,6 +107,12 @@ pub trait RayRecorder {
     /// [`RayRecorder::RECORDS`], after [`RayRecorder::hit`] of `None`.
     #[inline(always)]
     fn environment(&mut self, _lookup: &EnvironmentLookup) {}
+    /// The current ray's hit read its texture trilinearly, at this footprint and mip level.
+    /// Called, after [`RayRecorder::hit`], for every recorder (whether or not it
+    /// [`RayRecorder::RECORDS`]: the mip-level view needs nothing else) and only when textures
+    /// are filtered trilinearly.
+    #[inline(always)]
+    fn texture_lod(&mut self, _lod: &TextureLod) {}
 }
 
 /// How a shaded surface weighs what it gathers, as the integrator applies it: its own light
@@ -311,6 +317,9 @@ pub struct RecordedRay {
     /// For a ray that missed in a scene with an environment map: where it read the map.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub environment: Option<EnvironmentLookup>,
+    /// For a hit whose texture was read trilinearly: the footprint and the mip level.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub texture_lod: Option<TextureLod>,
 }
 
 impl std::fmt::Display for StoppedBranch {
@@ -459,6 +468,7 @@ impl RayRecorder for RayTree {
             skipped_lights: Vec::new(),
             traversal: None,
             environment: None,
+            texture_lod: None,
         });
         self.open.push(Some(self.rays.len() - 1));
     }
@@ -543,6 +553,12 @@ impl RayRecorder for RayTree {
     fn environment(&mut self, lookup: &EnvironmentLookup) {
         if let Some(r) = self.current() {
             r.environment = Some(*lookup);
+        }
+    }
+
+    fn texture_lod(&mut self, lod: &TextureLod) {
+        if let Some(r) = self.current() {
+            r.texture_lod = Some(*lod);
         }
     }
 }

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
+use crate::cone::Footprint;
 use crate::film::{Film, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
 use crate::lens::ThinLens;
@@ -17,7 +18,7 @@ use crate::ray::Ray;
 use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
 use crate::scene::Scene;
-use crate::settings::RenderSettings;
+use crate::settings::{RenderSettings, TextureFilter};
 use crate::sky::Sky;
 
 // The counts a render reports, under the name its users meet them by.
@@ -82,14 +83,30 @@ pub fn render_pass(
     // The sky is chosen here, once: a scene without an environment map runs the miss path
     // it always had (see `crate::sky`).
     match &scene.environment {
-        None => pass_with(&Integrator::new(scene, settings), camera, film, pass, cancel, progress),
-        Some(env) => pass_with(&Integrator::with_sky(scene, settings, env), camera, film, pass, cancel, progress),
+        None => pass_footprint(Integrator::new(scene, settings), camera, film, pass, cancel, progress),
+        Some(env) => pass_footprint(Integrator::with_sky(scene, settings, env), camera, film, pass, cancel, progress),
     }
 }
 
+/// [`render_pass`] with `integrator`, whose rays carry cones when textures are filtered
+/// trilinearly (chosen here, once: other filters run code with no footprint in it).
+fn pass_footprint<S: Sky>(
+    integrator: Integrator<S>,
+    camera: &CameraMotion,
+    film: &mut Film,
+    pass: SamplePass,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> (RayCounts, bool) {
+    if integrator.settings.texture_filter == TextureFilter::Trilinear {
+        return pass_with(&integrator.with_cones(&camera.start), camera, film, pass, cancel, progress);
+    }
+    pass_with(&integrator, camera, film, pass, cancel, progress)
+}
+
 /// [`render_pass`] with `integrator`.
-fn pass_with<S: Sky>(
-    integrator: &Integrator<S>,
+fn pass_with<S: Sky, C: Footprint>(
+    integrator: &Integrator<S, C>,
     camera: &CameraMotion,
     film: &mut Film,
     pass: SamplePass,
@@ -203,9 +220,9 @@ fn camera_ray(
 }
 
 /// What every pixel of a pass shares.
-struct Pass<'a, S: Sky> {
+struct Pass<'a, S: Sky, C: Footprint> {
     /// The scene and settings, ready to shade.
-    integrator: &'a Integrator<'a, S>,
+    integrator: &'a Integrator<'a, S, C>,
     /// The camera over the shutter interval.
     camera: &'a CameraMotion,
     /// A still camera's ray generator, made once per pass (`None` for a moving camera, whose
@@ -229,13 +246,13 @@ struct PixelRun<'a> {
     counts: &'a mut [u32],
 }
 
-impl<'a, S: Sky> Pass<'a, S> {
+impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     fn new(
-        integrator: &'a Integrator<'a, S>,
+        integrator: &'a Integrator<'a, S, C>,
         camera: &'a CameraMotion,
         still: Option<&'a RayGenerator>,
         pass: SamplePass,
-    ) -> Pass<'a, S> {
+    ) -> Pass<'a, S, C> {
         // The lens of the pose at shutter open: a moving camera keeps its focus distance.
         let lens = ThinLens::new(integrator.settings, &camera.start);
         Pass { integrator, camera, still, lens, packets: camera.is_still() && lens.is_none(), pass }
@@ -385,11 +402,34 @@ pub fn trace_pixel<R: RayRecorder>(
     rec: &mut R,
 ) -> Color {
     let pass = SamplePass { samples: 1, limit: u32::MAX, planned: settings.spp, seed: settings.seed };
+    let at = PixelSample { x, y, k };
     match &scene.environment {
-        None => Pass::new(&Integrator::new(scene, settings), camera, None, pass).sample_pixel(x, y, k, rec),
-        Some(env) => {
-            Pass::new(&Integrator::with_sky(scene, settings, env), camera, None, pass).sample_pixel(x, y, k, rec)
-        }
+        None => trace_footprint(Integrator::new(scene, settings), camera, pass, at, rec),
+        Some(env) => trace_footprint(Integrator::with_sky(scene, settings, env), camera, pass, at, rec),
     }
     .0
+}
+
+/// Sample `k` of pixel `(x, y)`.
+#[derive(Clone, Copy)]
+struct PixelSample {
+    x: u32,
+    y: u32,
+    k: u32,
+}
+
+/// [`trace_pixel`] with `integrator`, whose rays carry cones when textures are filtered
+/// trilinearly, as [`render_pass`] chooses.
+fn trace_footprint<S: Sky, R: RayRecorder>(
+    integrator: Integrator<S>,
+    camera: &CameraMotion,
+    pass: SamplePass,
+    at: PixelSample,
+    rec: &mut R,
+) -> (Color, RayCounts) {
+    let PixelSample { x, y, k } = at;
+    if integrator.settings.texture_filter == TextureFilter::Trilinear {
+        return Pass::new(&integrator.with_cones(&camera.start), camera, None, pass).sample_pixel(x, y, k, rec);
+    }
+    Pass::new(&integrator, camera, None, pass).sample_pixel(x, y, k, rec)
 }

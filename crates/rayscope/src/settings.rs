@@ -299,4 +299,8 @@ pub enum TextureFilter {
     /// Bilinear blend of the four nearest texels.
     #[default]
     Bilinear,
+    /// Mipmapping: bilinear in the two levels of the texture's mip pyramid around the level
+    /// of detail of the ray's footprint (a ray cone carried from the camera through
+    /// reflections), blended linearly. Environment maps are read bilinearly.
+    Trilinear,
 }

@@ -39,7 +39,7 @@ fn mirror_scene() -> Scene {
 
 fn map(width: u32, texels: Vec<Color>, intensity: f32, rotation: f32) -> Environment {
     let desc = EnvironmentDesc { path: "test.exr".into(), intensity, rotation };
-    Environment::from_texture(desc, Texture { width, height: width / 2, texels }).unwrap()
+    Environment::from_texture(desc, Texture::new(width, width / 2, texels)).unwrap()
 }
 
 fn settings(filter: TextureFilter) -> RenderSettings {

@@ -40,7 +40,7 @@ fn decode(reader: impl BufRead + Seek, path: &Path) -> Result<Texture> {
         }
         _ => img.to_rgb8().pixels().map(|p| Color::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).collect(),
     };
-    Ok(Texture { width, height, texels })
+    Ok(Texture::new(width, height, texels))
 }
 
 #[cfg(test)]

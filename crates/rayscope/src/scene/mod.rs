@@ -7,6 +7,7 @@
 pub mod builtin;
 pub mod desc;
 mod geometry;
+mod texture_lod;
 mod visibility;
 
 use std::path::{Path, PathBuf};
@@ -16,6 +17,7 @@ pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 // The mesh file formats scenes read, by extension.
 pub use crate::io::mesh_file::MESH_EXTENSIONS;
 pub use geometry::{Geometry, Shape, SlotInfo};
+pub use texture_lod::TextureLod;
 pub use visibility::LightVisibility;
 
 // The loaders' limit on the size of a file, under the scene whose files it bounds.
@@ -34,7 +36,7 @@ use crate::geometry::Aabb;
 use crate::io::file::read_text;
 use crate::math::{Color, Vec2, Vec3A, face_forward};
 use crate::motion::{Interpolation, MotionPath};
-use crate::settings::{RenderSettings, ShadingOptions};
+use crate::settings::{RenderSettings, ShadingOptions, TextureFilter};
 
 /// A triangle mesh with per-vertex attributes and a material per triangle.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -377,13 +379,50 @@ impl Scene {
         }
     }
 
-    /// Shading information at `hit` on `ray`.
+    /// Shading information at `hit` on `ray`. A trilinear texture lookup here has no
+    /// footprint and reads the finest level ([`Scene::surface_in_cone`] has one).
+    #[inline]
     pub fn surface(&self, ray: &Ray, hit: &Hit, options: &ShadingOptions) -> SurfaceInteraction {
+        self.surface_at(ray, hit, options, None).si
+    }
+
+    /// [`Scene::surface`] for a ray whose cone is `width` wide at the hit
+    /// ([`crate::settings::TextureFilter::Trilinear`]): a trilinear texture lookup reads the mip
+    /// level of the cone's footprint on the surface, which the answer tells.
+    pub fn surface_in_cone(&self, ray: &Ray, hit: &Hit, options: &ShadingOptions, width: f32) -> ConeSurface {
+        self.surface_at(ray, hit, options, Some(width))
+    }
+
+    /// The curvature (1 / radius) of the surface at `hit`, for a reflected ray cone: a
+    /// sphere's; for a triangle whose normals are interpolated, the largest turn of its vertex
+    /// normals per unit of length along an edge; 0 for a flat triangle.
+    pub fn curvature(&self, hit: &Hit, options: &ShadingOptions) -> f32 {
+        match self.geometry.slots[hit.slot as usize].prim {
+            PrimRef::Sphere(s) => 1.0 / self.spheres[s as usize].radius,
+            PrimRef::Triangle { mesh, face } => {
+                let m = &self.meshes[mesh as usize];
+                if !options.interpolate_normals || m.normals.is_empty() {
+                    return 0.0;
+                }
+                let c = m.triangles[face as usize].map(|i| i as usize);
+                let turn = |a: usize, b: usize| {
+                    let len = (m.positions[b] - m.positions[a]).length();
+                    if len > 0.0 { (m.normals[b] - m.normals[a]).length() / len } else { 0.0 }
+                };
+                turn(c[0], c[1]).max(turn(c[1], c[2])).max(turn(c[2], c[0]))
+            }
+        }
+    }
+
+    /// [`Scene::surface`], with the texture's mip level chosen by a cone of `cone` width when
+    /// there is one (inlined: `surface`'s constant `None` removes the footprint's code).
+    #[inline(always)]
+    fn surface_at(&self, ray: &Ray, hit: &Hit, options: &ShadingOptions, cone: Option<f32>) -> ConeSurface {
         let point = ray.at(hit.t);
         // Read in slot order (neighbouring rays, neighbouring slots); the mesh's own arrays
         // only for what the slot does not hold.
         let SlotInfo { prim, material } = self.geometry.slots[hit.slot as usize];
-        let (geo, shading, uv, material) = match prim {
+        let (geo, shading, uv, material, uv_density) = match prim {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
                 let corners = || m.triangles[face as usize].map(|i| i as usize);
@@ -410,7 +449,15 @@ impl Scene {
                 } else {
                     (geo, Vec2::ZERO)
                 };
-                (geo, shading, uv, material)
+                // The texture's stretch, for a footprint: uv area per world area.
+                let uv_density = if cone.is_some() && !m.uvs.is_empty() {
+                    let [a, b, c] = corners();
+                    let world = (m.positions[b] - m.positions[a]).cross(m.positions[c] - m.positions[a]).length();
+                    (m.uvs[b] - m.uvs[a]).perp_dot(m.uvs[c] - m.uvs[a]).abs() / world
+                } else {
+                    0.0
+                };
+                (geo, shading, uv, material, uv_density)
             }
             PrimRef::Sphere(s) => {
                 let s = &self.spheres[s as usize];
@@ -421,7 +468,10 @@ impl Scene {
                     0.5 + n.z.atan2(n.x) / std::f32::consts::TAU,
                     0.5 + n.y.clamp(-1.0, 1.0).asin() / std::f32::consts::PI,
                 );
-                (n, n, uv, material)
+                // The unit uv square covers the sphere's area (stretched towards the poles).
+                let uv_density =
+                    if cone.is_some() { 1.0 / (4.0 * std::f32::consts::PI * s.radius * s.radius) } else { 0.0 };
+                (n, n, uv, material, uv_density)
             }
         };
         // Shade the side the ray arrives from: the course's meshes are not consistently
@@ -429,10 +479,28 @@ impl Scene {
         let geo_normal = face_forward(geo, -ray.dir);
         let shading_normal = face_forward(shading, geo_normal);
         let mat = &self.materials[material as usize];
-        let kd = match (mat.texture, options.textures) {
-            (Some(t), true) => self.textures[t].sample(uv, options.texture_filter),
+        let mut lod = None;
+        let kd = match (mat.texture, options.textures, cone) {
+            (Some(t), true, Some(width)) if options.texture_filter == TextureFilter::Trilinear => {
+                let texture = &self.textures[t];
+                let l = TextureLod::of(texture, t, width, geo_normal.dot(ray.dir).abs(), uv_density);
+                lod = Some(l);
+                texture.sample_lod(uv, l.level)
+            }
+            (Some(t), true, _) => self.textures[t].sample(uv, options.texture_filter),
             _ => mat.kd,
         };
-        SurfaceInteraction { point, geo_normal, shading_normal, uv, material, kd }
+        ConeSurface { si: SurfaceInteraction { point, geo_normal, shading_normal, uv, material, kd }, lod }
     }
+}
+
+/// [`Scene::surface_in_cone`]'s answer: the shading information, and the mip level its
+/// texture lookup read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConeSurface {
+    /// The shading information.
+    pub si: SurfaceInteraction,
+    /// The trilinear lookup's footprint and level; `None` where no texture was read
+    /// trilinearly.
+    pub lod: Option<TextureLod>,
 }

@@ -256,7 +256,7 @@ fn file_name(path: &Path) -> String {
 pub fn flip_rows(t: Texture) -> Texture {
     let w = t.width as usize;
     let texels = if w == 0 { t.texels } else { t.texels.chunks_exact(w).rev().flatten().copied().collect() };
-    Texture { texels, ..t }
+    Texture::new(t.width, t.height, texels)
 }
 
 /// The accessor types a use reads.
