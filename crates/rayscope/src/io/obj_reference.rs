@@ -1,0 +1,368 @@
+//! The OBJ reader rayscope used before its own parser ([`super::obj`]): a scan of every line,
+//! then `tobj`. Kept for the tests, as the oracle the new reader must agree with.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::io::{BufRead, Read};
+use std::path::Path;
+use std::path::PathBuf;
+
+use super::duplicates::without_duplicates;
+use super::index_hash::{IndexHash, pack};
+use super::lines::Lines;
+use super::memory::MeshSize;
+use super::mtl::ObjMaterial;
+use super::mtl::parse_mtl;
+use super::obj::{ObjFile, ObjMesh, smooth_normals};
+use super::obj_chunk::STATEMENTS;
+use crate::error::{Error, Result};
+use crate::math::{Vec2, Vec3};
+
+/// Parse OBJ text. `path` names it in errors; `read_mtl` returns the path and text of an MTL
+/// file named by `mtllib`. A file without faces is an error: it is not a mesh.
+pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(PathBuf, String)>) -> Result<ObjFile> {
+    let scan = scan_obj(Lines::Text(text), path)?;
+    read_obj(text.as_bytes(), scan, path, |name| read_mtl(name).and_then(|(p, t)| parse_mtl(&t, &p)))
+}
+
+/// Read the faces of an OBJ file that [`scan_obj`] checked (`scan`) with `tobj`, and its
+/// materials with `read_mtl` (the materials of one MTL file, by its name in `mtllib`).
+fn read_obj(
+    faces: impl BufRead,
+    scan: ObjScan,
+    path: &Path,
+    read_mtl: impl Fn(&str) -> Result<Vec<ObjMaterial>>,
+) -> Result<ObjFile> {
+    // `tobj` reads the faces and calls back for each `mtllib` line, in file order; the
+    // libraries are read here, by the names the scan split (tobj takes the whole rest of the
+    // line for one name). Our materials are numbered globally and tobj's list stays empty,
+    // so the indices it gives groups are ours.
+    let libraries = RefCell::new(scan.libraries.into_iter());
+    let materials = RefCell::new(Vec::<ObjMaterial>::new());
+    let mtl_error = RefCell::new(None);
+    let load_library = |_: &Path| -> tobj::MTLLoadResult {
+        let names = libraries.borrow_mut().next().unwrap_or_default();
+        let mut materials = materials.borrow_mut();
+        let mut by_name = Vec::new();
+        for name in names {
+            match read_mtl(&name) {
+                Ok(read) => {
+                    for m in read {
+                        by_name.push((m.material.name.clone(), materials.len()));
+                        materials.push(m);
+                    }
+                }
+                Err(e) => {
+                    mtl_error.borrow_mut().get_or_insert(e);
+                    return Err(tobj::LoadError::OpenFileFailed);
+                }
+            }
+        }
+        Ok((Vec::new(), by_name.into_iter().collect()))
+    };
+    // tobj reads an `l` line of three or more vertices as a face: they are blanked (lines
+    // kept, for tobj's count of them) by a filter, used only for files that have them.
+    let loaded = if scan.polylines {
+        load_faces(WithoutPolylines { inner: faces, line: Vec::new(), at: 0 }, path, load_library)
+    } else {
+        load_faces(faces, path, load_library)
+    };
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    let (models, _) = loaded?.map_err(|e| Error::parse(path, None, e.to_string()))?;
+    let mut out = ObjFile { materials: materials.into_inner(), warnings: scan.warnings, ..ObjFile::default() };
+    let mut duplicates = 0;
+    // Each model is dropped once unified: tobj's copy and ours of one group at a time, not of
+    // the whole file.
+    for model in models {
+        let mesh = &model.mesh;
+        if mesh.indices.is_empty() {
+            continue;
+        }
+        let mut positions = scan.size.vec(path, mesh.positions.len() / 3)?;
+        positions.extend(mesh.positions.chunks_exact(3).map(Vec3::from_slice));
+        out.raw_positions.try_reserve(positions.len()).map_err(|_| scan.size.out_of_memory(path))?;
+        out.raw_positions.extend_from_slice(&positions);
+        let material = match mesh.material_id {
+            Some(i) if i < out.materials.len() => Some(i),
+            Some(i) => {
+                return Err(Error::parse(
+                    path,
+                    None,
+                    format!("group '{}' uses material #{i}, which no MTL defines", model.name),
+                ));
+            }
+            None => None,
+        };
+        let group = Group { name: &model.name, mesh, material };
+        out.meshes.push(unify(group, positions, &mut duplicates, scan.size, path)?);
+    }
+    if out.meshes.is_empty() {
+        return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
+    }
+    if duplicates > 0 {
+        out.warnings.push(format!(
+            "{}: {duplicates} duplicate face{} (the same three vertices, in the same order, as an earlier face of \
+             its group) dropped",
+            path.display(),
+            if duplicates == 1 { "" } else { "s" }
+        ));
+    }
+    Ok(out)
+}
+
+/// Run `tobj` over `faces`, calling `load_library` for each `mtllib` line.
+fn load_faces(
+    mut faces: impl BufRead,
+    path: &Path,
+    load_library: impl Fn(&Path) -> tobj::MTLLoadResult,
+) -> Result<tobj::LoadResult> {
+    let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
+    // The scan admits only what tobj reads without error or panic; should a panic remain,
+    // it is an error in this file, not the end of the program.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tobj::load_obj_buf(&mut faces, &opts, load_library)))
+        .map_err(|_| Error::parse(path, None, "the OBJ reader failed on this file"))
+}
+
+/// A reader of an OBJ file's lines in which `l` (polyline) lines are empty.
+struct WithoutPolylines<R> {
+    inner: R,
+    /// The current line, as given on.
+    line: Vec<u8>,
+    /// How much of `line` was consumed.
+    at: usize,
+}
+
+impl<R: BufRead> Read for WithoutPolylines<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.fill_buf()?.read(buf)?;
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for WithoutPolylines<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.at == self.line.len() {
+            self.line.clear();
+            self.at = 0;
+            self.inner.read_until(b'\n', &mut self.line)?;
+            let head = self.line.split(u8::is_ascii_whitespace).find(|w| !w.is_empty());
+            if head == Some(b"l") {
+                self.line.clear();
+                self.line.push(b'\n');
+            }
+        }
+        Ok(&self.line[self.at..])
+    }
+
+    fn consume(&mut self, amount: usize) {
+        self.at += amount;
+    }
+}
+
+/// A group of faces as `tobj` read it.
+struct Group<'a> {
+    name: &'a str,
+    mesh: &'a tobj::Mesh,
+    /// Index into [`ObjFile::materials`].
+    material: Option<usize>,
+}
+
+/// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
+/// (area-weighted, per position so texture seams stay smooth) when the group has none, and
+/// drops duplicate faces (counted in `duplicates`). The large arrays are reserved fallibly:
+/// the file's `size` and `path` make the error of a mesh that does not fit.
+fn unify(group: Group, positions: Vec<Vec3>, duplicates: &mut usize, size: MeshSize, path: &Path) -> Result<ObjMesh> {
+    let Group { name, mesh, material } = group;
+    let oom = |_| size.out_of_memory(path);
+    let has_n = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
+    let has_t = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
+    let file_normals: Vec<Vec3> = if has_n {
+        mesh.normals.chunks_exact(3).map(Vec3::from_slice).collect()
+    } else {
+        smooth_normals(&positions, &mesh.indices)
+    };
+    let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(Vec2::from_slice).collect();
+    let mut out = ObjMesh { name: name.to_string(), material, ..ObjMesh::default() };
+    // As many vertices as positions, unless normals or texture coordinates split some.
+    out.positions.try_reserve_exact(positions.len()).map_err(oom)?;
+    out.normals.try_reserve_exact(positions.len()).map_err(oom)?;
+    let mut map: HashMap<u128, u32, IndexHash> = HashMap::with_hasher(IndexHash::new());
+    map.try_reserve(positions.len()).map_err(oom)?;
+    let mut corners = size.vec(path, mesh.indices.len())?;
+    for (k, &pi) in mesh.indices.iter().enumerate() {
+        let ni = if has_n { mesh.normal_indices[k] } else { pi };
+        let ti = if has_t { mesh.texcoord_indices[k] } else { u32::MAX };
+        let next = out.positions.len() as u32;
+        let idx = *map.entry(pack([pi, ni, ti])).or_insert_with(|| {
+            out.positions.push(positions[pi as usize]);
+            out.normals.push(file_normals[ni as usize].normalize_or_zero());
+            if has_t {
+                out.uvs.push(uvs[ti as usize]);
+            }
+            next
+        });
+        corners.push(idx);
+    }
+    drop(map);
+    out.positions.shrink_to_fit();
+    out.normals.shrink_to_fit();
+    out.triangles = without_duplicates(&corners, duplicates, size, path)?;
+    Ok(out)
+}
+
+/// The numbers of a line, between `min` and `max` of them, all finite.
+fn parse_floats(path: &Path, line_no: usize, words: &[&str], min: usize, max: usize) -> Result<()> {
+    if words.len() < min || words.len() > max {
+        return Err(Error::parse(
+            path,
+            Some(line_no),
+            format!("expected {min} to {max} numbers, found {}", words.len()),
+        ));
+    }
+    for w in words {
+        let v: f32 = w.parse().map_err(|_| Error::parse(path, Some(line_no), format!("'{w}' is not a number")))?;
+        if !v.is_finite() {
+            return Err(Error::parse(path, Some(line_no), format!("'{w}' is not a finite number")));
+        }
+    }
+    Ok(())
+}
+
+/// What the scan of an OBJ file found besides errors.
+struct ObjScan {
+    /// The MTL file names of each `mtllib` line, in file order.
+    libraries: Vec<Vec<String>>,
+    /// Accepted but ignored, naming the file and line.
+    warnings: Vec<String>,
+    /// Whether there are `l` (polyline) lines, which tobj would read as faces.
+    polylines: bool,
+    /// Its triangles and vertices.
+    size: MeshSize,
+}
+
+/// Check every line before `tobj` reads the file, so that what it would reject, or read as
+/// NaN geometry, is an error at its line: numbers parse and are finite, face indices refer to
+/// elements defined before them (OBJ's rule), faces have at least three corners, and every
+/// statement is OBJ's. Faces that give texture coordinate (or normal) indices in a file
+/// without any `vt` (`vn`) lines are accepted with a warning, as other readers do.
+fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
+    let mut scan = ObjScan { libraries: Vec::new(), warnings: Vec::new(), polylines: false, size: MeshSize::default() };
+    let mut counts = [0i64; 3]; // v, vt, vn
+    // The first line whose face refers to texture coordinates or normals when none exist.
+    let mut missing: [Option<usize>; 3] = [None; 3];
+    let mut colored = false;
+    lines.for_each(path, |n, line| {
+        let err = |message: String| Error::parse(path, Some(n), message);
+        let mut words = line.split_whitespace();
+        let Some(head) = words.next() else { return Ok(()) };
+        if head.starts_with('#') {
+            return Ok(());
+        }
+        let rest: Vec<&str> = words.collect();
+        match head {
+            "v" => {
+                // x y z, then nothing, a weight w, or a colour r g b (tobj's reading).
+                if ![3, 4, 6].contains(&rest.len()) {
+                    return Err(err(format!("expected 3, 4 or 6 numbers, found {}", rest.len())));
+                }
+                parse_floats(path, n, &rest, 3, 6)?;
+                if let [x, y, z, w] = rest[..] {
+                    // tobj divides by the weight.
+                    let [x, y, z, w] = [x, y, z, w].map(|s| s.parse::<f32>().unwrap_or(f32::NAN));
+                    if !(x / w).is_finite() || !(y / w).is_finite() || !(z / w).is_finite() {
+                        return Err(err(format!("the weight {w} makes the vertex infinite")));
+                    }
+                }
+                // tobj pairs colours with vertices by position in its list.
+                if counts[0] > 0 && colored != (rest.len() == 6) {
+                    return Err(err("vertex colours are given for some vertices only".into()));
+                }
+                colored = rest.len() == 6;
+                counts[0] += 1;
+            }
+            "vt" => {
+                parse_floats(path, n, &rest, 2, 3)?;
+                counts[1] += 1;
+            }
+            "vn" => {
+                parse_floats(path, n, &rest, 3, 3)?;
+                counts[2] += 1;
+            }
+            "f" | "l" => {
+                let face = head == "f";
+                scan.polylines |= !face;
+                if face && rest.len() < 3 {
+                    return Err(err(format!("a face needs at least 3 vertices, found {}", rest.len())));
+                }
+                if face {
+                    scan.size.triangles += rest.len() as u64 - 2;
+                }
+                for corner in &rest {
+                    let invalid = || err(format!("'{corner}' is not a valid face vertex"));
+                    for (k, part) in corner.split('/').enumerate() {
+                        if k > 2 {
+                            return Err(invalid());
+                        }
+                        if part.is_empty() && k > 0 {
+                            continue;
+                        }
+                        let idx: i64 = part.parse().map_err(|_| invalid())?;
+                        // Polylines are not drawn (nor given to tobj); only their syntax matters.
+                        if !face {
+                            continue;
+                        }
+                        let count = counts[k];
+                        if count == 0 && k > 0 {
+                            missing[k].get_or_insert(n);
+                            continue;
+                        }
+                        let ok = if idx > 0 { idx <= count } else { idx < 0 && -idx <= count };
+                        if !ok {
+                            let what = ["vertex", "texture coordinate", "normal"][k];
+                            return Err(err(format!("{what} index {idx} is out of range ({count} defined so far)")));
+                        }
+                    }
+                }
+            }
+            "mtllib" => {
+                if rest.is_empty() {
+                    return Err(err("mtllib names no file".into()));
+                }
+                // The format's `mtllib a.mtl b.mtl`: several libraries, all read.
+                scan.libraries.push(rest.iter().map(|s| s.to_string()).collect());
+            }
+            // tobj takes the name after the first space.
+            "usemtl" if line.split_once(' ').is_none_or(|(_, name)| name.trim().is_empty()) => {
+                return Err(err("usemtl names no material".into()));
+            }
+            _ if STATEMENTS.contains(&head) => {}
+            _ => {
+                let shown: String = line.chars().take(60).collect();
+                return Err(err(format!("not an OBJ statement: '{}' (is this a mesh file?)", shown.escape_debug())));
+            }
+        }
+        Ok(())
+    })?;
+    scan.size.vertices = counts.iter().sum::<i64>() as u64;
+    for (k, what, element) in [(1, "texture coordinate", "vt"), (2, "normal", "vn")] {
+        match missing[k] {
+            // Elements defined after the faces that refer to them break OBJ's rule.
+            Some(line) if counts[k] > 0 => {
+                return Err(Error::parse(
+                    path,
+                    Some(line),
+                    format!("{what} index refers to no `{element}` line before it"),
+                ));
+            }
+            Some(line) => scan.warnings.push(format!(
+                "{}:{line}: faces give {what} indices but the file has no `{element}` lines; they are ignored",
+                path.display()
+            )),
+            None => {}
+        }
+    }
+    Ok(scan)
+}
