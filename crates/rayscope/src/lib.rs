@@ -34,6 +34,7 @@ pub mod film;
 pub mod lens;
 pub mod motion;
 pub mod output;
+pub mod partial;
 pub mod post;
 pub mod progressive;
 pub mod record;
