@@ -35,6 +35,7 @@ pub mod film;
 pub mod lens;
 pub mod motion;
 pub mod output;
+pub mod partial;
 pub mod post;
 pub mod progressive;
 pub mod record;

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::cone::Footprint;
-use crate::film::{Film, finite_or_black};
+use crate::film::{Film, FilmSlices, PixelSum, Residual, add_sample, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
 use crate::lens::ThinLens;
 use crate::math::{Color, Vec2};
@@ -119,7 +119,7 @@ fn pass_with<S: Sky, C: Footprint>(
     let w = settings.width as usize;
     let total = w * settings.height as usize;
     let done = AtomicUsize::new(0);
-    let (sums, counts) = film.raw_mut();
+    let FilmSlices { sums, counts } = film.slices_mut();
     // Bands of whole rows, rendered in place: each task owns its slice of the film, so there
     // is no intermediate buffer to fill and copy. Every pixel's value depends only on the
     // pixel, so the split does not change the image.
@@ -130,15 +130,16 @@ fn pass_with<S: Sky, C: Footprint>(
         .enumerate()
         .map(|(b, (sums, counts))| {
             if cancel.load(Ordering::Relaxed) {
-                return Band { tally: Tally::default(), complete: false };
+                return Band { tally: Tally::default(), residuals: Vec::new(), complete: false };
             }
             let mut tally = Tally::default();
+            let mut residuals = Vec::new();
             let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
             for (row, (sums, counts)) in rows.enumerate() {
                 let y = (b * BAND_ROWS + row) as u32;
                 let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
                 for (run, (sums, counts)) in runs.enumerate() {
-                    let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts };
+                    let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut residuals };
                     // Pixels side by side that are at the same sample, seen by a still camera:
                     // their camera rays share the pinhole and go through the BVH together.
                     let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
@@ -151,16 +152,19 @@ fn pass_with<S: Sky, C: Footprint>(
             }
             let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
             progress(RenderProgress { done: d, total });
-            Band { tally, complete: true }
+            Band { tally, residuals, complete: true }
         })
         .collect();
     let mut sum = Tally::default();
     let mut complete = true;
+    let mut residuals = Vec::new();
     for band in results {
         sum.add(band.tally);
         complete &= band.complete;
+        residuals.extend(band.residuals);
     }
     film.add_dropped(sum.dropped);
+    film.add_residuals(residuals);
     (sum.rays, complete)
 }
 
@@ -180,9 +184,11 @@ impl Tally {
     }
 }
 
-/// One band of rows of a pass: its tally, and whether it ran (false: cancelled first).
+/// One band of rows of a pass: its tally, what its sums lost to rounding, and whether it ran
+/// (false: cancelled first).
 struct Band {
     tally: Tally,
+    residuals: Vec<Residual>,
     complete: bool,
 }
 
@@ -238,12 +244,13 @@ struct Pass<'a, S: Sky, C: Footprint> {
 }
 
 /// Up to [`PACKET`] pixels of row `y` from `x0` rightwards, with their running sums and sample
-/// counts in the film.
+/// counts in the film, and where to keep what the sums lose to rounding.
 struct PixelRun<'a> {
     x0: u32,
     y: u32,
-    sums: &'a mut [Color],
+    sums: &'a mut [PixelSum],
     counts: &'a mut [u32],
+    residuals: &'a mut Vec<Residual>,
 }
 
 impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
@@ -321,8 +328,9 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same values, bit
     /// for bit, as pixel by pixel.
     fn sample_run(&self, run: PixelRun) -> Tally {
-        let PixelRun { x0, y, sums, counts } = run;
+        let PixelRun { x0, y, sums, counts, residuals } = run;
         let n = sums.len();
+        let row = y * self.integrator.settings.width;
         let mut total = Tally::default();
         let first = counts[0];
         let last = sample_range(first, self.pass);
@@ -337,7 +345,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {
                 let mut ctx = PathContext::new(sampler, &mut rec);
                 let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
-                sums[i] += finite_or_black(c, &mut total.dropped);
+                add_sample(&mut sums[i], finite_or_black(c, &mut total.dropped), row + x0 + i as u32, residuals);
                 total.rays.add(ctx.counts);
             }
         }
@@ -348,13 +356,14 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// Add the pass's samples to `run` one pixel and one sample at a time (pixels at
     /// different sample counts, or a moving camera).
     fn sample_alone(&self, run: PixelRun) -> Tally {
-        let PixelRun { x0, y, sums, counts } = run;
+        let PixelRun { x0, y, sums, counts, residuals } = run;
         let mut total = Tally::default();
+        let row = y * self.integrator.settings.width;
         for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
             let last = sample_range(*count, self.pass);
             for k in *count..last {
                 let (c, r) = self.sample_pixel(x, y, k, &mut NoRecorder);
-                *sum += finite_or_black(c, &mut total.dropped);
+                add_sample(sum, finite_or_black(c, &mut total.dropped), row + x, residuals);
                 total.rays.add(r);
             }
             *count = last;
