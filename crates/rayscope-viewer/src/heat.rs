@@ -101,7 +101,7 @@ impl HeatScale {
 }
 
 /// The ramp's colour at `t` (0 to 1), linear RGB.
-fn ramp(t: f32) -> [f32; 3] {
+pub(crate) fn ramp(t: f32) -> [f32; 3] {
     let t = t.clamp(0.0, 1.0) * (RAMP.len() - 1) as f32;
     let i = (t as usize).min(RAMP.len() - 2);
     let f = t - i as f32;
@@ -109,7 +109,8 @@ fn ramp(t: f32) -> [f32; 3] {
     [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]
 }
 
-fn color32(c: [f32; 3]) -> Color32 {
+/// The egui colour of linear RGB `c` (clamped to [0, 1]).
+pub(crate) fn color32(c: [f32; 3]) -> Color32 {
     let u = |v: f32| (v.clamp(0.0, 1.0) * 255.0) as u8;
     Color32::from_rgb(u(c[0]), u(c[1]), u(c[2]))
 }

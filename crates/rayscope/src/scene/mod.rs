@@ -5,6 +5,7 @@
 //! ([`Scene::light_visibility`], [`LightVisibility`]).
 
 pub mod builtin;
+mod camera_lens;
 pub mod desc;
 mod geometry;
 mod texture_lod;
