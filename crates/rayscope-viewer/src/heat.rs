@@ -78,14 +78,7 @@ impl HeatScale {
             self.width,
             counted(self.nodes as u64, "node", "nodes"),
         ));
-        let (rect, _) = ui.allocate_exact_size(Vec2::new(ui.available_width().min(260.0), 14.0), Sense::hover());
-        let steps = 64;
-        for i in 0..steps {
-            let (a, b) = (i as f32 / steps as f32, (i + 1) as f32 / steps as f32);
-            let x = |t: f32| rect.min.x + t * rect.width();
-            let cell = egui::Rect::from_x_y_ranges(x(a)..=x(b), rect.y_range());
-            ui.painter().rect_filled(cell, 0.0, color32(ramp((a + b) * 0.5)));
-        }
+        ramp_bar(ui);
         if self.min == self.max {
             ui.label(format!("every ray tested {}: no spread to show", counted(self.max as u64, "box", "boxes")));
         } else {
@@ -97,6 +90,18 @@ impl HeatScale {
             self.millis,
             self.mrays_per_s()
         ));
+    }
+}
+
+/// The ramp drawn as a bar, from its first colour (left) to its last, for a legend.
+pub(crate) fn ramp_bar(ui: &mut egui::Ui) {
+    let (rect, _) = ui.allocate_exact_size(Vec2::new(ui.available_width().min(260.0), 14.0), Sense::hover());
+    let steps = 64;
+    for i in 0..steps {
+        let (a, b) = (i as f32 / steps as f32, (i + 1) as f32 / steps as f32);
+        let x = |t: f32| rect.min.x + t * rect.width();
+        let cell = egui::Rect::from_x_y_ranges(x(a)..=x(b), rect.y_range());
+        ui.painter().rect_filled(cell, 0.0, color32(ramp((a + b) * 0.5)));
     }
 }
 

@@ -4,10 +4,9 @@
 //! texture's own texels) to the top level (red, the 1x1 mean), with the legend that gives the
 //! scale. Pixels that read no texture are grey.
 
-use egui::{Sense, Vec2};
 use rayscope::film::FloatImage;
 
-use crate::heat::{color32, ramp};
+use crate::heat::{ramp, ramp_bar};
 
 /// Grey, for pixels that read no texture.
 const UNTEXTURED: [f32; 3] = [0.25, 0.25, 0.25];
@@ -51,14 +50,7 @@ impl MipScale {
     /// What the view shows and its scale, as the panel gives it.
     pub fn legend(&self, ui: &mut egui::Ui) {
         ui.label("Mip level trilinear filtering reads at each pixel's first textured hit (sample 0, its ray cone)");
-        let (rect, _) = ui.allocate_exact_size(Vec2::new(ui.available_width().min(260.0), 14.0), Sense::hover());
-        let steps = 64;
-        for i in 0..steps {
-            let (a, b) = (i as f32 / steps as f32, (i + 1) as f32 / steps as f32);
-            let x = |t: f32| rect.min.x + t * rect.width();
-            let cell = egui::Rect::from_x_y_ranges(x(a)..=x(b), rect.y_range());
-            ui.painter().rect_filled(cell, 0.0, color32(ramp((a + b) * 0.5)));
-        }
+        ramp_bar(ui);
         ui.label(format!("level 0 (blue, the texels) to {} (red, the 1x1 mean); grey: no texture", self.top));
         ui.label(format!(
             "{} of {} pixels textured, highest level read {:.2}; {:.1} ms",
