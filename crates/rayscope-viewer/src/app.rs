@@ -20,7 +20,7 @@ use crate::plural::counted;
 use crate::preview::{Backdrop, LineVertex, OverlayDraw, Preview};
 use crate::session::{NO_DISPLAY_HINT, check_display};
 use crate::state::{BvhTree, Highlight, ModeChoice, OverlayKey, PixelDebug, PixelRect, ViewKind, ViewerState};
-use crate::worker::{FrameImage, RenderJob, Worker};
+use crate::worker::{FalseColour, FrameImage, RenderJob, Worker};
 
 /// The most rays the ray-tree panel lists: each is a widget drawn every frame, and a tree
 /// can hold up to [`crate::state::RECORDED_RAYS`].
@@ -277,8 +277,12 @@ impl RayscopeApp {
 
     fn submit_job(&mut self) {
         let camera = self.state.camera();
-        let heat = self.state.view == ViewKind::HeatMap;
-        let key = (self.state.generation, camera.clone(), heat, self.state.max_spp, self.state.exposure_frames);
+        let false_colour = match self.state.view {
+            ViewKind::HeatMap => Some(FalseColour::HeatMap),
+            ViewKind::MipLevels => Some(FalseColour::MipLevels),
+            _ => None,
+        };
+        let key = (self.state.generation, camera.clone(), false_colour, self.state.max_spp, self.state.exposure_frames);
         if self.last_job.as_ref() == Some(&key) {
             return;
         }
@@ -288,7 +292,7 @@ impl RayscopeApp {
             settings: self.state.settings.clone(),
             mode: self.state.imaging_mode(),
             camera,
-            heat_map: heat,
+            false_colour,
             max_spp: self.state.max_spp,
             generation: self.state.generation,
             bloom_layer: self.state.bloom_layer,
@@ -349,6 +353,10 @@ impl RayscopeApp {
                     .on_hover_text("The ray-traced image (Tab toggles)");
                 ui.selectable_value(&mut st.view, ViewKind::HeatMap, "Heat map")
                     .on_hover_text("BVH node boxes each camera ray tested: blue fewest, red most");
+                ui.selectable_value(&mut st.view, ViewKind::MipLevels, "Mip levels").on_hover_text(
+                    "The mip level trilinear filtering reads at each pixel's first textured hit, from its ray cone \
+                     (through mirrors): blue the texels, red the 1x1 mean, grey no texture",
+                );
             });
             if st.compare.is_some() {
                 ui.horizontal(|ui| {
@@ -359,6 +367,11 @@ impl RayscopeApp {
             }
             if st.view == ViewKind::HeatMap
                 && let Some(scale) = self.last_frame.as_ref().and_then(|f| f.heat)
+            {
+                scale.legend(ui);
+            }
+            if st.view == ViewKind::MipLevels
+                && let Some(scale) = self.last_frame.as_ref().and_then(|f| f.mips)
             {
                 scale.legend(ui);
             }
@@ -383,7 +396,7 @@ impl RayscopeApp {
             }
             ui.add(egui::Slider::new(&mut st.max_spp, 1..=4096).logarithmic(true).text("Max samples"))
                 .on_hover_text("Dynamic mode stops refining at this many samples per pixel");
-            if let Some(f) = self.last_frame.as_ref().filter(|f| f.heat.is_none()) {
+            if let Some(f) = self.last_frame.as_ref().filter(|f| f.heat.is_none() && f.mips.is_none()) {
                 ui.label(format!(
                     "{}, {}/pixel, {:.2} Mrays/s",
                     counted(f.frames.into(), "frame", "frames"),
@@ -437,14 +450,24 @@ impl RayscopeApp {
                     ui.selectable_value(&mut s.filter, f, format!("{f:?}"));
                 }
             });
-            egui::ComboBox::from_label("Texture filter").selected_text(format!("{:?}", s.texture_filter)).show_ui(
-                ui,
-                |ui| {
-                    for f in [TextureFilter::Nearest, TextureFilter::Bilinear] {
-                        ui.selectable_value(&mut s.texture_filter, f, format!("{f:?}"));
+            egui::ComboBox::from_label("Texture filter")
+                .selected_text(format!("{:?}", s.texture_filter))
+                .show_ui(ui, |ui| {
+                    let tips = [
+                        (TextureFilter::Nearest, "The texel under the point"),
+                        (TextureFilter::Bilinear, "A blend of the four nearest texels"),
+                        (
+                            TextureFilter::Trilinear,
+                            "Mipmapping: the texture's pyramid read at the level of the ray cone's footprint \
+                             (see the Mip levels view)",
+                        ),
+                    ];
+                    for (f, tip) in tips {
+                        ui.selectable_value(&mut s.texture_filter, f, format!("{f:?}")).on_hover_text(tip);
                     }
-                },
-            );
+                })
+                .response
+                .on_hover_text("How textures are filtered; trilinear averages what a pixel covers, far away too");
             crate::lens::lens_panel(ui, &mut s, st.trackball.distance);
         });
         st.set_settings(s);

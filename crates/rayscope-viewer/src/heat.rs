@@ -78,14 +78,7 @@ impl HeatScale {
             self.width,
             counted(self.nodes as u64, "node", "nodes"),
         ));
-        let (rect, _) = ui.allocate_exact_size(Vec2::new(ui.available_width().min(260.0), 14.0), Sense::hover());
-        let steps = 64;
-        for i in 0..steps {
-            let (a, b) = (i as f32 / steps as f32, (i + 1) as f32 / steps as f32);
-            let x = |t: f32| rect.min.x + t * rect.width();
-            let cell = egui::Rect::from_x_y_ranges(x(a)..=x(b), rect.y_range());
-            ui.painter().rect_filled(cell, 0.0, color32(ramp((a + b) * 0.5)));
-        }
+        ramp_bar(ui);
         if self.min == self.max {
             ui.label(format!("every ray tested {}: no spread to show", counted(self.max as u64, "box", "boxes")));
         } else {
@@ -100,8 +93,20 @@ impl HeatScale {
     }
 }
 
+/// The ramp drawn as a bar, from its first colour (left) to its last, for a legend.
+pub(crate) fn ramp_bar(ui: &mut egui::Ui) {
+    let (rect, _) = ui.allocate_exact_size(Vec2::new(ui.available_width().min(260.0), 14.0), Sense::hover());
+    let steps = 64;
+    for i in 0..steps {
+        let (a, b) = (i as f32 / steps as f32, (i + 1) as f32 / steps as f32);
+        let x = |t: f32| rect.min.x + t * rect.width();
+        let cell = egui::Rect::from_x_y_ranges(x(a)..=x(b), rect.y_range());
+        ui.painter().rect_filled(cell, 0.0, color32(ramp((a + b) * 0.5)));
+    }
+}
+
 /// The ramp's colour at `t` (0 to 1), linear RGB.
-fn ramp(t: f32) -> [f32; 3] {
+pub(crate) fn ramp(t: f32) -> [f32; 3] {
     let t = t.clamp(0.0, 1.0) * (RAMP.len() - 1) as f32;
     let i = (t as usize).min(RAMP.len() - 2);
     let f = t - i as f32;
@@ -109,7 +114,8 @@ fn ramp(t: f32) -> [f32; 3] {
     [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]
 }
 
-fn color32(c: [f32; 3]) -> Color32 {
+/// The egui colour of linear RGB `c` (clamped to [0, 1]).
+pub(crate) fn color32(c: [f32; 3]) -> Color32 {
     let u = |v: f32| (v.clamp(0.0, 1.0) * 255.0) as u8;
     Color32::from_rgb(u(c[0]), u(c[1]), u(c[2]))
 }

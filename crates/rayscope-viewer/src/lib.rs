@@ -12,6 +12,7 @@ pub mod environment;
 pub mod files;
 pub mod heat;
 pub mod lens;
+pub mod mip;
 pub mod motion;
 pub mod overlay;
 pub mod plural;

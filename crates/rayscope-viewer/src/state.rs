@@ -44,6 +44,8 @@ pub enum ViewKind {
     RayTraced,
     /// BVH nodes visited per pixel.
     HeatMap,
+    /// The mip level trilinear filtering reads per pixel.
+    MipLevels,
     /// With `--compare`: their image (see [`crate::compare`]).
     Theirs,
     /// With `--compare`: our render compared with it.

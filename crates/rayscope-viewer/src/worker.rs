@@ -16,6 +16,7 @@ use rayscope::scene::Scene;
 use rayscope::settings::RenderSettings;
 
 use crate::heat::HeatScale;
+use crate::mip::MipScale;
 
 /// What to render.
 #[derive(Clone)]
@@ -28,8 +29,8 @@ pub struct RenderJob {
     pub mode: ImagingMode,
     /// The camera for the next frames.
     pub camera: CameraMotion,
-    /// Render the BVH heat map (nodes visited per pixel) instead of the image.
-    pub heat_map: bool,
+    /// Render a false-colour view (the BVH heat map, the mip levels) instead of the image.
+    pub false_colour: Option<FalseColour>,
     /// Dynamic mode stops accumulating at this many samples per pixel.
     pub max_spp: u32,
     /// Which of bloom's layers the frames show.
@@ -63,6 +64,17 @@ pub struct FrameImage {
     pub done: bool,
     /// For a heat map, its scale and what it measured.
     pub heat: Option<HeatScale>,
+    /// For the mip-level view, its scale and what it measured.
+    pub mips: Option<MipScale>,
+}
+
+/// The false-colour views, each one frame of facts per pixel rather than an image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FalseColour {
+    /// BVH node boxes tested per camera ray.
+    HeatMap,
+    /// The mip level trilinear filtering reads.
+    MipLevels,
 }
 
 struct Shared {
@@ -104,7 +116,7 @@ impl Worker {
         let mut slot = self.shared.job.lock().unwrap();
         let restart = slot.as_ref().is_some_and(|j| {
             j.generation != job.generation
-                || j.heat_map != job.heat_map
+                || j.false_colour != job.false_colour
                 || (j.camera != job.camera && !matches!(job.mode, ImagingMode::Exposure { .. }))
         });
         if restart {
@@ -140,7 +152,7 @@ fn to_frame(image: FloatImage, frames: u32, spp: u32, mrays_per_s: f64, generati
     let rgb = to_rgb8(&image, Encoding::Linear);
     let rgba = rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect();
     let (width, height) = (image.width, image.height);
-    FrameImage { width, height, rgba, image, frames, spp, mrays_per_s, generation, done, heat: None }
+    FrameImage { width, height, rgba, image, frames, spp, mrays_per_s, generation, done, heat: None, mips: None }
 }
 
 /// The heat map of `job`'s camera: one frame, complete (the traversal is deterministic, so
@@ -153,6 +165,17 @@ fn heat_frame(job: &RenderJob, pool: &rayon::ThreadPool) -> FrameImage {
     let scale = HeatScale::of(&aov, wide.width(), wide.node_count(), millis);
     let frame = to_frame(scale.image(&aov), 1, 1, scale.mrays_per_s(), job.generation, true);
     FrameImage { heat: Some(scale), ..frame }
+}
+
+/// The mip-level view of `job`'s camera: one frame, complete (sample 0 of every pixel).
+fn mip_frame(job: &RenderJob, pool: &rayon::ThreadPool) -> FrameImage {
+    let start = Instant::now();
+    let aov = pool.install(|| render_aov(&job.scene, &job.settings, &job.camera.start, Aov::MipLevel, &|_| {}));
+    let millis = start.elapsed().as_secs_f64() * 1e3;
+    let top = job.scene.textures.iter().map(|t| t.top_level()).max().unwrap_or(0);
+    let scale = MipScale::of(&aov, top, millis);
+    let frame = to_frame(scale.image(&aov), 1, 1, 0.0, job.generation, true);
+    FrameImage { mips: Some(scale), ..frame }
 }
 
 fn run(shared: &Shared, repaint: &(dyn Fn() + Send + Sync)) {
@@ -175,7 +198,7 @@ fn run(shared: &Shared, repaint: &(dyn Fn() + Send + Sync)) {
                     // exposure, whose image stands until the next one.
                     (Some(j), Some(f)) => {
                         j.generation == f.generation
-                            && j.heat_map == f.heat_map
+                            && j.false_colour == f.false_colour
                             && (j.camera == f.camera || matches!(j.mode, ImagingMode::Exposure { .. }))
                     }
                     _ => false,
@@ -189,8 +212,12 @@ fn run(shared: &Shared, repaint: &(dyn Fn() + Send + Sync)) {
             slot.clone().expect("a job")
         };
         finished = None;
-        if job.heat_map {
-            post(shared, heat_frame(&job, &pool), repaint);
+        if let Some(view) = job.false_colour {
+            let frame = match view {
+                FalseColour::HeatMap => heat_frame(&job, &pool),
+                FalseColour::MipLevels => mip_frame(&job, &pool),
+            };
+            post(shared, frame, repaint);
             finished = Some(job);
             continue;
         }

@@ -161,12 +161,26 @@ fn the_heat_map_has_a_legend_that_says_what_it_measured() {
     assert!(h.query_by_label_contains("samples/pixel").is_none());
 }
 
+#[test]
+fn the_mip_level_view_has_a_legend_and_levels_that_rise_to_the_horizon() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scenes/checker-floor.toml");
+    let opts = ViewerOptions { scene: scene.into(), view: Some(ViewKind::MipLevels), ..Default::default() };
+    let Some(mut h) = harness(opts) else { return };
+    wait_frames(&mut h, 1);
+    let scale = h.state().last_frame().and_then(|f| f.mips).expect("a mip-level frame carries its scale");
+    // The floor fills the lower half; the far floor reads high levels.
+    assert!(scale.textured > scale.pixels / 3 && scale.max > 3.0 && scale.top == 6, "{scale:?}");
+    h.get_by_label_contains("Mip level trilinear filtering reads");
+    h.get_by_label_contains("grey: no texture");
+    assert!(h.query_by_label_contains("samples/pixel").is_none());
+}
+
 /// `--screenshot` with `--frames 2` in every view: each must save its screenshot and ask the
 /// window to close (the heat map, one frame, never reached two and kept the window open).
 #[test]
 fn every_view_finishes_its_frames_and_saves_the_screenshot() {
     let dir = tempfile::tempdir().unwrap();
-    for view in [ViewKind::Raster, ViewKind::RayTraced, ViewKind::HeatMap] {
+    for view in [ViewKind::Raster, ViewKind::RayTraced, ViewKind::HeatMap, ViewKind::MipLevels] {
         let shot = dir.path().join(format!("{view:?}.png"));
         let opts = ViewerOptions {
             scene: "cornell-box".into(),

@@ -65,6 +65,12 @@ struct CameraFields {
     eye: Option<Vec3>,
     target: Option<Vec3>,
     up: Option<Vec3>,
+    // The lens, read by the scene's loader into the render settings (`scene/camera_lens.rs`);
+    // declared here so that the table's parse accepts them and checks their types.
+    #[allow(dead_code, reason = "read by the scene loader's own parse of the table")]
+    aperture: Option<f32>,
+    #[allow(dead_code, reason = "read by the scene loader's own parse of the table")]
+    focus_distance: Option<f32>,
 }
 
 impl TryFrom<CameraFields> for CameraDesc {
@@ -84,8 +90,12 @@ impl TryFrom<CameraFields> for CameraDesc {
         };
         if let Some((key, _)) = foreign.iter().find(|(_, given)| *given) {
             let (this, expected) = match kind {
-                CameraKind::Trackball => ("trackball", "`kind`, `look_at`, `distance`, `rotation` or `fov`"),
-                CameraKind::LookAt => ("look-at", "`kind`, `eye`, `target`, `up` or `fov`"),
+                CameraKind::Trackball => {
+                    ("trackball", "`kind`, `look_at`, `distance`, `rotation`, `fov`, `aperture` or `focus_distance`")
+                }
+                CameraKind::LookAt => {
+                    ("look-at", "`kind`, `eye`, `target`, `up`, `fov`, `aperture` or `focus_distance`")
+                }
             };
             return Err(format!("unknown field `{key}` for a {this} camera, expected {expected}"));
         }

@@ -123,7 +123,6 @@ impl Texture {
     /// The colour at `uv` (v = 0 at the bottom of the image, the OBJ convention). Trilinear
     /// filtering needs a footprint ([`Texture::sample_lod`]); without one it reads level 0,
     /// bilinearly.
-    #[inline]
     pub fn sample(&self, uv: Vec2, filter: TextureFilter) -> Color {
         if !uv.is_finite() {
             return Color::ZERO;

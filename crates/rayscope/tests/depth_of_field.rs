@@ -209,3 +209,34 @@ fn bad_lens_values_are_clear_errors() {
         assert!(e.contains(what), "{e}");
     }
 }
+
+/// The lens is a key of the camera table: it reaches the render settings, bad values and a
+/// lens given twice (or in `camera_end`) are errors naming the file and line, the old
+/// `[render]` keys still work, and export writes the lens into the camera table.
+#[test]
+fn the_camera_table_holds_the_lens() {
+    let path = std::path::Path::new("lens.toml");
+    let read = |text: &str| rayscope::scene::SceneDesc::from_toml(text, path);
+    let d = read("[camera]\nkind = \"trackball\"\naperture = 0.1\nfocus_distance = 2.5\n").unwrap();
+    let r = d.render.as_ref().unwrap();
+    assert_eq!((r.aperture, r.focus_distance), (0.1, Some(2.5)));
+    // The alias, as documented.
+    let old = read("[render]\naperture = 0.1\nfocus_distance = 2.5\n").unwrap();
+    assert_eq!(old.render, d.render);
+    // Export writes the lens into the camera table, and reads back the same.
+    let text = d.to_toml();
+    let camera = text.split("[camera]").nth(1).unwrap().split("\n[").next().unwrap();
+    assert!(camera.contains("aperture = 0.1") && camera.contains("focus_distance = 2.5"), "{text}");
+    assert!(!text.split("[render]").nth(1).unwrap().contains("aperture"), "{text}");
+    assert_eq!(read(&text).unwrap(), d);
+    for (text, want) in [
+        ("name = \"x\"\n[camera]\nfov = 40\naperture = -0.5\n", ["lens.toml:4:", "camera, aperture", "aperture -0.5"]),
+        ("[camera]\nfocus_distance = 0.0\n", ["lens.toml:2:", "focus_distance", "focus distance 0"]),
+        ("[camera]\naperture = 0.1\n[render]\naperture = 0.2\n", ["lens.toml:2:", "[render]", "give it once"]),
+        ("[camera_end]\naperture = 0.1\n", ["lens.toml:2:", "camera_end", "give it in [camera]"]),
+        ("[camera]\naperture = \"wide\"\n", ["lens.toml:2:", "invalid type", "string"]),
+    ] {
+        let err = read(text).unwrap_err().to_string();
+        assert!(want.iter().all(|w| err.contains(w)), "{text}: {err}");
+    }
+}

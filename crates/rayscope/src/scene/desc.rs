@@ -5,6 +5,8 @@
 //! [camera]                      # or kind = "look-at" with eye, target, up, fov
 //! kind = "trackball"
 //! rotation = [20, 20, 0]
+//! aperture = 0.0                # lens radius, depth of field (0: a pinhole)
+//! # focus_distance = 3.0        # depth in focus (default: the look-at distance)
 //!
 //! [[mesh]]
 //! path = "bunny.obj"            # relative to this file; or `asset = "..."` in the asset folder
@@ -43,7 +45,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::{Mesh, Scene, SceneSphere};
+use super::{Mesh, Scene, SceneSphere, camera_lens};
 use crate::animation::AnimationSettings;
 use crate::camera::CameraDesc;
 use crate::environment::{Environment, EnvironmentDesc};
@@ -327,13 +329,18 @@ impl SceneDesc {
             let line = span.clone().map(|s| culprit_line(text, s, e.message()));
             Error::parse(path, line, e.message().to_string())
         })?;
+        let mut desc = desc;
+        camera_lens::apply(text, &mut desc).map_err(|bad| {
+            let bad = BadValue { table: bad.table, index: None, key: bad.key, message: bad.message };
+            Error::parse(path, bad.line_in(text), bad.to_string())
+        })?;
         check_values(&desc).map_err(|bad| Error::parse(path, bad.line_in(text), bad.to_string()))?;
         Ok(desc)
     }
 
-    /// This description as TOML.
+    /// This description as TOML, with the lens (depth of field) in the camera table.
     pub fn to_toml(&self) -> String {
-        toml::to_string(self).expect("scene descriptions always serialise")
+        toml::to_string(&camera_lens::export(self)).expect("scene descriptions always serialise")
     }
 
     /// A scene of one mesh file (OBJ, PLY or glTF): an OBJ or PLY file as [`Self::for_obj`];

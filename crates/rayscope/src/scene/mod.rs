@@ -5,6 +5,7 @@
 //! ([`Scene::light_visibility`], [`LightVisibility`]).
 
 pub mod builtin;
+mod camera_lens;
 pub mod desc;
 mod geometry;
 mod texture_lod;
@@ -417,8 +418,9 @@ impl Scene {
     }
 
     /// Shading information at `hit` on `ray`. A trilinear texture lookup here has no
-    /// footprint and reads the finest level ([`Scene::surface_in_cone`] has one).
-    #[inline]
+    /// footprint and reads the finest level ([`Scene::surface_in_cone`] has one). Not marked
+    /// `#[inline]`, as before the footprint: the compiler's own choice keeps the camera rays'
+    /// loop as it was.
     pub fn surface(&self, ray: &Ray, hit: &Hit, options: &ShadingOptions) -> SurfaceInteraction {
         self.surface_at(ray, hit, options, None).si
     }
