@@ -30,14 +30,15 @@ pub struct AnimationArgs {
     pub frames: Option<FramesArg>,
     /// Render only frame F of the animation, to the file --frames writes for it (bit for bit
     /// the same image): one task per frame of a job array.
-    #[arg(long, value_name = "F", value_parser = clap::value_parser!(u32).range(0..=MAX_FRAME as i64))]
+    #[arg(long, value_name = "F", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(0..=MAX_FRAME as i64))]
     pub frame: Option<u32>,
     /// Frames per second of scene time (motion keys are seconds) [default: 24].
-    #[arg(long, value_name = "F", value_parser = parse_fps)]
+    #[arg(long, value_name = "F", allow_negative_numbers = true, value_parser = parse_fps)]
     pub fps: Option<f64>,
     /// The part of each frame's duration the shutter is open, 0 to 1 [default: 0.5, a
     /// 180-degree shutter]: frame F exposes [F / fps, (F + shutter) / fps].
-    #[arg(long, value_name = "S", value_parser = parse_shutter)]
+    #[arg(long, value_name = "S", allow_negative_numbers = true, value_parser = parse_shutter)]
     pub shutter: Option<f64>,
     /// With --frames: leave frames whose file exists as they are (continue an interrupted run).
     #[arg(long)]

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use proptest::prelude::*;
 use rayscope::Error;
+use rayscope::animation::{AnimationSettings, Shutter};
 use rayscope::camera::{Camera, CameraDesc, CameraMotion};
 use rayscope::debug::{SampleChoice, trace_pixel_samples};
 use rayscope::material::MaterialDesc;
@@ -261,6 +262,84 @@ proptest! {
             prop_assert!(t_hit.is_some_and(|d| d <= 4.9 + 1e-3), "ray at {t} missed: {t_hit:?}");
         }
     }
+}
+
+/// A path's keys stretched from `[0, 1]` over `[0, seconds]` (an animation's timeline).
+fn stretched(path: &MotionPath, seconds: f32) -> MotionPath {
+    let keys = path.keys().iter().map(|k| Keyframe { time: k.time * seconds, ..*k }).collect();
+    MotionPath::new(keys, path.interpolation()).unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// A frame's bound holds the path at every scene time the frame exposes (and the moving
+    /// sphere's box in the tree built for the frame holds the sphere then, and a ray at its
+    /// centre hits it), it lies inside the whole path's bound, and a still's shutter over
+    /// keys in [0, 1] gets the whole path's bound itself.
+    #[test]
+    fn a_frames_bound_holds_the_path_over_the_frame(
+        path in path(),
+        seconds in 0.5f32..20.0,
+        frame in 0u32..400,
+        fps in 1.0f64..60.0,
+        shutter in 0.0f64..=1.0,
+    ) {
+        prop_assert_eq!(path.bounds_over(Shutter::STILL), path.bounds());
+        let long = stretched(&path, seconds);
+        let s = AnimationSettings { fps, shutter, frames: None }.shutter_of(frame);
+        let b = long.bounds_over(s);
+        let whole = long.bounds();
+        let slack = 1e-4;
+        prop_assert!(b.min.cmpge(whole.min - slack).all() && b.max.cmple(whole.max + slack).all(), "{b:?} not in {whole:?}");
+        for i in 0..=256 {
+            let t = s.time(i as f32 / 256.0 * (1.0 - f32::EPSILON));
+            let p = long.at(t);
+            prop_assert!(p.cmpge(b.min).all() && p.cmple(b.max).all(), "{p} outside {b:?} at {t} of {s:?}");
+        }
+        let keys = long.keys().to_vec();
+        let motion = MotionDesc::Keys { keys, interpolation: long.interpolation() };
+        let desc = SceneDesc {
+            spheres: vec![SphereDesc { center: Vec3::new(0.3, 0.0, 0.0), radius: 0.1, material: white(), motion: Some(motion) }],
+            ..SceneDesc::default()
+        };
+        let mut scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
+        scene.set_shutter(s);
+        let g = &scene.geometry;
+        let bound = g.shape_bounds(&g.shapes[0]);
+        for i in 0..=64 {
+            let u = i as f32 / 64.0 * (1.0 - f32::EPSILON);
+            let c = Vec3A::new(0.3, 0.0, 0.0) + long.at(s.time(u));
+            let at_u = rayscope::geometry::Aabb { min: c - 0.1, max: c + 0.1 };
+            prop_assert!(bound.contains(&at_u), "at {u}: {at_u:?} outside {bound:?}");
+            let ray = Ray { time: u, ..Ray::new(c + Vec3A::new(0.0, 0.0, -5.0), Vec3A::Z) };
+            let t_hit = scene.intersect(&ray).map(|h| h.t);
+            prop_assert!(t_hit.is_some_and(|d| (d - 4.9).abs() < 1e-3), "ray at {u} missed: {t_hit:?}");
+        }
+    }
+}
+
+#[test]
+fn a_late_frames_tree_is_tight_and_a_still_keeps_its_tree() {
+    // A sphere crossing 20 units over 10 s: the tree of a frame bounds the frame's stretch
+    // only (a few hundredths of a unit at 24 fps), not the whole crossing.
+    let keys = vec![
+        Keyframe { time: 0.0, translation: Vec3::new(-10.0, 0.0, 0.0) },
+        Keyframe { time: 5.0, translation: Vec3::new(0.0, 1.0, 0.0) },
+        Keyframe { time: 10.0, translation: Vec3::new(10.0, 0.0, 0.0) },
+    ];
+    let desc = sphere_scene(Some(MotionDesc::Keys { keys, interpolation: Interpolation::CatmullRom }));
+    let mut scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
+    let still_box = scene.geometry.shape_bounds(&scene.geometry.shapes[0]);
+    let frame = AnimationSettings::default().shutter_of(100);
+    scene.set_shutter(frame);
+    let root = scene.geometry.shape_bounds(&scene.geometry.shapes[0]);
+    let width = root.max.x - root.min.x;
+    assert!(width < 0.4 + 0.1, "a frame's box is {width} wide");
+    scene.set_shutter(Shutter::STILL);
+    assert_eq!(scene.geometry.shape_bounds(&scene.geometry.shapes[0]), still_box, "back to the still's box");
+    assert_ne!(still_box, root);
+    assert_eq!(scene.shutter(), Shutter::STILL);
 }
 
 #[test]

@@ -132,7 +132,7 @@ pub struct SurfaceInteraction {
 
 /// A loaded scene with its acceleration structure, ready to trace. Immutable once built, so
 /// threads share it by reference.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Scene {
     /// Display name.
     pub name: String,
