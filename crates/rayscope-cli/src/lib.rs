@@ -20,6 +20,7 @@ mod bvh_split;
 mod compare;
 mod env_args;
 mod export;
+pub mod frames;
 mod k8s;
 mod parts;
 mod slurm;
@@ -379,6 +380,8 @@ struct RenderArgs {
     repeat: u32,
     #[command(flatten)]
     parts: parts::PartArgs,
+    #[command(flatten)]
+    animation: frames::AnimationArgs,
 }
 
 #[derive(Args)]
@@ -602,8 +605,16 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
     if args.target_spp.is_some_and(|t| t == 0 || t > rayscope::settings::MAX_SAMPLES) {
         bail!("--target-spp must be 1 to {}", rayscope::settings::MAX_SAMPLES);
     }
+    let animating = args.animation.frames.is_some() || args.animation.frame.is_some();
+    if animating && (args.progressive || args.repeat > 1) {
+        bail!("--frames and --frame render each frame once: not with --progressive or --repeat");
+    }
+    if animating && (args.parts.part.is_some() || args.parts.resume.is_some()) {
+        bail!("--frames and --frame render whole frames: not with --part or --resume");
+    }
     let load_start = std::time::Instant::now();
-    let (scene, settings) = load(&args.scene)?;
+    let (mut scene, settings) = load(&args.scene)?;
+    let animation = args.animation.resolve(&scene)?;
     // Loading includes the BVH build, reported apart.
     let load_ms = (load_start.elapsed().as_secs_f64() - scene.build_time.as_secs_f64()) * 1e3;
     let pool = thread_pool(args.scene.threads)?;
@@ -621,6 +632,23 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
     );
     let progress = |p: rayscope::render::RenderProgress| bar.set_position(p.done as u64);
     let encoding = if args.srgb { Encoding::Srgb } else { Encoding::Linear };
+    if let Some(animation) = animation {
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} {bar:40} {percent:>3}% {elapsed} (eta {eta})")
+                .expect("valid template"),
+        );
+        eprintln!(
+            "{}: load {load_ms:.1} ms, frames {} at {} fps, shutter {} of a frame -> {}",
+            scene.name,
+            animation.frames,
+            animation.settings.fps,
+            animation.settings.shutter,
+            rayscope::animation::frame_path(&args.output, animation.frames.start).display()
+        );
+        let how = frames::FrameOutput { aov: args.aov, encoding };
+        let skip = args.animation.skip_existing;
+        return frames::render_frames(&mut scene, &settings, &animation, &args.output, how, skip, &pool, &bar);
+    }
     let stats = scene.bvh_stats();
     let summary = |what: &str| {
         format!(

@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use rayscope::animation::{FrameRange, frame_path};
 use rayscope::partial::file::read_partial;
 use rayscope::partial::part::Split;
 use rayscope::partial::{PartialFilm, Portion};
@@ -27,8 +28,19 @@ pub struct SlurmArgs {
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
     /// Parts (array tasks) to split the render into.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536))]
-    parts: u32,
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536),
+          required_unless_present = "frames", conflicts_with = "frames")]
+    parts: Option<u32>,
+    /// Render frames A..B (B excluded) or A..=B of the animation instead, one array task per
+    /// frame (`render --frame $SLURM_ARRAY_TASK_ID`), to OUT_0001.png...; no merge.
+    #[arg(long, value_name = "A..B", value_parser = FrameRange::parse)]
+    frames: Option<FrameRange>,
+    /// With --frames: frames per second of scene time (passed to each frame's render).
+    #[arg(long, value_name = "F")]
+    fps: Option<String>,
+    /// With --frames: the shutter, a fraction of a frame (passed to each frame's render).
+    #[arg(long, value_name = "S")]
+    shutter: Option<String>,
     /// How to split: by sample index or by tiles [default: samples].
     #[arg(long, value_enum, value_name = "samples|tiles")]
     split: Option<Split>,
@@ -58,7 +70,8 @@ pub struct SlurmArgs {
 
 /// The flags of `slurm` that are not `render`'s, with whether each takes a value: what is
 /// left of the command line is passed to every part's `rayscope render`.
-const OWN_FLAGS: [(&str, bool); 11] = [
+const OWN_FLAGS: [(&str, bool); 12] = [
+    ("--frames", true),
     ("--output", true),
     ("-o", true),
     ("--parts", true),
@@ -130,8 +143,14 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
     let output = cwd.join(&args.output);
     let dir = PathBuf::from(format!("{}.parts", output.display()));
     std::fs::create_dir_all(&dir).with_context(|| format!("{}: creating the parts' folder", dir.display()))?;
-    let n = args.parts;
     let split = args.split.unwrap_or_default();
+    // The array's indices: parts 0..N, or the frames.
+    let (first, n) = match (args.parts, args.frames) {
+        (_, Some(f)) => (f.start, f.end - f.start),
+        (Some(n), None) => (0, n),
+        (None, None) => bail!("give --parts N or --frames A..B"),
+    };
+    let frames = args.frames.is_some();
     let mem = args.mem.unwrap_or_else(|| memory_mb(settings.width, settings.height));
     let mut render = render_options(&OWN_FLAGS);
     if args.scene.threads.is_none() {
@@ -152,14 +171,21 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
     if let Some(t) = &args.time {
         head += &format!("#SBATCH --time={}\n", shell_quote(t));
     }
+    let task = if frames {
+        format!("--frame \"$SLURM_ARRAY_TASK_ID\" -o {}", q(&output))
+    } else {
+        format!(
+            "--part \"$SLURM_ARRAY_TASK_ID/{n}\" --split {} -o {}/part-\"$SLURM_ARRAY_TASK_ID\".exr",
+            split.name(),
+            q(&dir)
+        )
+    };
     let render_script = format!(
-        "{head}#SBATCH --array=0-{}\n#SBATCH --output={}/part-%a.log\n# Part $SLURM_ARRAY_TASK_ID of {n}, written atomically: a killed task leaves no part.\nexec {} render {} --quiet --part \"$SLURM_ARRAY_TASK_ID/{n}\" --split {} -o {}/part-\"$SLURM_ARRAY_TASK_ID\".exr\n",
-        n - 1,
+        "{head}#SBATCH --array={first}-{}\n#SBATCH --output={}/task-%a.log\n# Task $SLURM_ARRAY_TASK_ID: its file is written atomically, so a killed task leaves none.\nexec {} render {} --quiet {task}\n",
+        first + n - 1,
         q(&dir),
         q(&exe),
         quoted.join(" "),
-        split.name(),
-        q(&dir)
     );
     let files: Vec<String> = (0..n).map(|k| q(&part_path(&dir, k))).collect();
     let merge_script = format!(
@@ -177,6 +203,11 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
         rayscope::output::write_file(path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
     }
     if !(args.submit || args.resume) {
+        if frames {
+            println!("{}", render_path.display());
+            eprintln!("wrote the job array of {n} frames; submit it with sbatch {}", render_path.display());
+            return Ok(ExitCode::SUCCESS);
+        }
         println!("{}", render_path.display());
         println!("{}", merge_path.display());
         eprintln!(
@@ -187,20 +218,20 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::SUCCESS);
     }
-    let todo: Vec<u32> = if args.resume {
-        (0..n).filter(|&k| !is_part(&part_path(&dir, k), &fingerprint, k, n, split)).collect()
-    } else {
-        (0..n).collect()
+    let done = |k: u32| {
+        if frames { frame_path(&output, k).is_file() } else { is_part(&part_path(&dir, k), &fingerprint, k, n, split) }
     };
+    let what = if frames { "frame" } else { "part" };
+    let todo: Vec<u32> = (first..first + n).filter(|&k| !args.resume || !done(k)).collect();
     let start = Instant::now();
     let deadline = args.wait_timeout.map(|s| start + Duration::from_secs_f64(s.max(0.0)));
     if !todo.is_empty() {
         let indices: Vec<String> = todo.iter().map(u32::to_string).collect();
         if args.resume {
-            eprintln!("resubmitting {} of {n}: {}", counted_parts(todo.len()), indices.join(","));
+            eprintln!("resubmitting {} of {n}: {}", counted(what, todo.len()), indices.join(","));
         }
         let array = sbatch(&[&format!("--array={}", indices.join(",")), &render_path.display().to_string()])?;
-        eprintln!("submitted job array {array} ({} parts)", todo.len());
+        eprintln!("submitted job array {array} ({})", counted(what, todo.len()));
         let states = wait_for(&array, deadline)?;
         let failed: Vec<String> = todo
             .iter()
@@ -215,13 +246,21 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
             .collect();
         if !failed.is_empty() {
             eprintln!(
-                "error: {} of {n} failed: {}\nsee {}/part-K.log; rerun with --resume to resubmit only them",
-                counted_parts(failed.len()),
+                "error: {} of {n} failed: {}\nsee {}/task-K.log; rerun with --resume to resubmit only them",
+                counted(what, failed.len()),
                 failed.join(", "),
                 dir.display()
             );
             return Ok(ExitCode::FAILURE);
         }
+    }
+    if frames {
+        eprintln!(
+            "rendered {n} frames -> {} ... in {:.1} s",
+            frame_path(&output, first).display(),
+            start.elapsed().as_secs_f64()
+        );
+        return Ok(ExitCode::SUCCESS);
     }
     let merge = sbatch(&[&merge_path.display().to_string()])?;
     let states = wait_for(&merge, deadline)?;
@@ -238,8 +277,8 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
     }
 }
 
-fn counted_parts(n: usize) -> String {
-    format!("{n} {}", if n == 1 { "part" } else { "parts" })
+fn counted(what: &str, n: usize) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
 }
 
 /// Whether `path` holds part `k` of `n` of this render.

@@ -145,4 +145,19 @@ fn slurm_renders_merges_reports_and_resumes() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("resubmitting 1 part of 4: 2"), "{}", stderr(&o));
     assert_eq!(std::fs::read(d.join("out.pfm")).unwrap(), std::fs::read(d.join("single.pfm")).unwrap());
+    // A 3-frame animation, one array task per frame: each frame as `render --frame F` makes it.
+    let anim = ["cornell-box-motion", "--width", "32", "--height", "32", "--spp", "2"];
+    let mut a = vec!["slurm"];
+    a.extend(anim);
+    a.extend(["--frames", "0..3", "-o", "anim.png", "--submit", "--wait-timeout", "120"]);
+    run(d, &a);
+    for f in 0..3 {
+        let mut r = vec!["render"];
+        r.extend(anim);
+        let frame = f.to_string();
+        r.extend(["--frame", &frame, "-o", "local.png"]);
+        run(d, &r);
+        let name = |stem: &str| d.join(format!("{stem}_{f:04}.png"));
+        assert_eq!(std::fs::read(name("anim")).unwrap(), std::fs::read(name("local")).unwrap(), "frame {f}");
+    }
 }

@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::animation::Shutter;
 use crate::math::{Mat3, Quat, Vec2, Vec3, Vec3A, quat_from_euler_degrees};
 use crate::motion::MotionPath;
 use crate::ray::Ray;
@@ -252,9 +253,10 @@ impl RayGenerator {
     }
 }
 
-/// A camera that may move during the exposure: `start` at shutter time 0, and either `end` at
-/// 1 (interpolated) or a `path` its position is translated along (its orientation and field of
-/// view stay `start`'s).
+/// A camera that may move during the exposure: `start` at scene time 0, and either `end` at
+/// scene time 1 (interpolated between, held outside) or a `path` its position is translated
+/// along (its orientation and field of view stay `start`'s); seen over the scene times its
+/// `shutter` exposes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraMotion {
     /// The pose when the shutter opens (with a path: before the path's translation).
@@ -264,12 +266,14 @@ pub struct CameraMotion {
     /// A path the camera's position is translated along (`None`: none); it takes precedence
     /// over `end` (scene files give one or the other).
     pub path: Option<MotionPath>,
+    /// The scene time the exposure covers ([`Shutter::STILL`] for a still image).
+    pub shutter: Shutter,
 }
 
 impl CameraMotion {
     /// A camera that does not move.
     pub fn still(camera: Camera) -> CameraMotion {
-        CameraMotion { start: camera, end: None, path: None }
+        CameraMotion { start: camera, end: None, path: None, shutter: Shutter::STILL }
     }
 
     /// Whether the camera has one pose for the whole exposure (no end pose, no path), so that
@@ -279,20 +283,28 @@ impl CameraMotion {
         self.end.is_none() && self.path.is_none()
     }
 
-    /// The pose at shutter time `t` in `[0, 1)`: along the path, the start pose translated by
-    /// the path's value at `t`; towards an end pose, positions and fields of view interpolated
-    /// linearly, orientations by slerp.
+    /// The pose at shutter fraction `u` in `[0, 1)`, at scene time `t` =
+    /// [`Shutter::time`]`(u)`: along the path, the start pose translated by the path's value
+    /// at `t`; towards an end pose, positions and fields of view interpolated linearly,
+    /// orientations by slerp, at `t` held to `[0, 1]` (under [`Shutter::STILL`], `t` is `u`).
     #[inline]
-    pub fn at(&self, t: f32) -> Camera {
+    pub fn at(&self, u: f32) -> Camera {
+        let t = self.shutter.time(u);
         match (&self.path, &self.end) {
             (Some(path), _) => Camera { position: self.start.position + path.at(t), ..self.start },
-            (None, Some(end)) if *end != self.start => Camera {
-                position: self.start.position.lerp(end.position, t),
-                rotation: self.start.rotation.slerp(end.rotation, t),
-                fov_y: self.start.fov_y + (end.fov_y - self.start.fov_y) * t,
-                look_distance: self.start.look_distance + (end.look_distance - self.start.look_distance) * t,
-            },
+            (None, Some(end)) if *end != self.start => self.towards(end, t.clamp(0.0, 1.0)),
             _ => self.start,
+        }
+    }
+
+    /// The pose a fraction `t` of the way from `start` to `end`.
+    #[inline]
+    fn towards(&self, end: &Camera, t: f32) -> Camera {
+        Camera {
+            position: self.start.position.lerp(end.position, t),
+            rotation: self.start.rotation.slerp(end.rotation, t),
+            fov_y: self.start.fov_y + (end.fov_y - self.start.fov_y) * t,
+            look_distance: self.start.look_distance + (end.look_distance - self.start.look_distance) * t,
         }
     }
 }
@@ -334,9 +346,9 @@ mod tests {
             rotation: Vec3::new(20.0, 60.0, 0.0),
             fov: 50.0,
         });
-        let m = CameraMotion { start: a, end: Some(b), path: None };
+        let m = CameraMotion { end: Some(b), ..CameraMotion::still(a) };
         assert!(m.at(0.0).position.distance(a.position) < 1e-6 && m.at(0.0).rotation.dot(a.rotation) > 1.0 - 1e-6);
-        assert_eq!(CameraMotion { start: a, end: Some(a), path: None }.at(0.3), a, "no motion is exactly still");
+        assert_eq!(CameraMotion { end: Some(a), ..CameraMotion::still(a) }.at(0.3), a, "no motion is exactly still");
         let mid = m.at(0.5);
         // Slerp keeps the eye on the trackball's sphere only for the rotation; the position is
         // a straight line, so the midpoint lies inside it.

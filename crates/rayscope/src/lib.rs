@@ -3,7 +3,7 @@
 //! The library holds everything but the user interfaces. Its surface is small: a [`scene`] is
 //! loaded (from a file, an OBJ or a built-in) and seen through a [`camera`] (a pinhole, or a
 //! thin [`lens`] for depth of field); [`settings`] say
-//! how to render it; [`render`] makes an image into a [`film`] (and traces single pixels for
+//! how to render it, and [`animation`] which span of the scene's timeline each frame shows; [`render`] makes an image into a [`film`] (and traces single pixels for
 //! the debugger, whose rays [`record`] keeps; [`debug`] traces every sample of a pixel and
 //! explains its colour), [`progressive`] accumulates frames, [`aov`] renders per-pixel facts of
 //! the first hits, [`output`] writes images, [`export`] writes scenes as OBJ or glTF, and [`compare`] measures how another image differs
@@ -24,6 +24,7 @@
 //! the bottom, then geometry and the BVH, the scene, the integrator, and the renderer on top.
 #![warn(missing_docs)]
 
+pub mod animation;
 pub mod aov;
 pub mod camera;
 pub mod compare;

@@ -1,9 +1,10 @@
 //! Motion along paths: a translation keyframed over the shutter interval, a clean function of
 //! time ([`MotionPath::at`]) for motion blur, the BVH's bounds and frames of an animation.
 //!
-//! A path is a list of [`Keyframe`]s, `(time, translation)`, with times in `[0, 1]` (0: the
-//! shutter opens, 1: it closes) strictly increasing, and an [`Interpolation`] between them.
-//! Before the first key and after the last the translation holds at that key's.
+//! A path is a list of [`Keyframe`]s, `(time, translation)`, with times in seconds of scene
+//! time (finite, strictly increasing; a still image exposes `[0, 1]`, an animation's frames
+//! their own spans: [`crate::animation`]), and an [`Interpolation`] between them. Before the
+//! first key and after the last the translation holds at that key's.
 //!
 //! **Catmull-Rom** here is the spline through the keys parametrised by their *times*: each
 //! segment `[t_i, t_i+1]` is the cubic Hermite curve between its keys whose derivatives (the
@@ -23,6 +24,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::animation::Shutter;
 use crate::geometry::Aabb;
 use crate::math::{Vec3, Vec3A};
 
@@ -50,11 +52,11 @@ impl Interpolation {
     }
 }
 
-/// A key of a path: the translation at a shutter time. Written `[t, [x, y, z]]`.
+/// A key of a path: the translation at a scene time. Written `[t, [x, y, z]]`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(from = "(f32, Vec3)", into = "(f32, Vec3)")]
 pub struct Keyframe {
-    /// Shutter time in `[0, 1]`.
+    /// Scene time in seconds (a still image exposes `[0, 1]`).
     pub time: f32,
     /// Translation at that time.
     pub translation: Vec3,
@@ -109,8 +111,8 @@ struct Segment {
 pub const BOUND_SLACK_ULPS: f32 = 16.0;
 
 impl MotionPath {
-    /// A path through `keys` (at least two, times finite, in `[0, 1]` and strictly increasing,
-    /// translations finite); the error says which rule a key breaks.
+    /// A path through `keys` (at least two, times finite and strictly increasing, translations
+    /// finite); the error says which rule a key breaks.
     pub fn new(keys: Vec<Keyframe>, interpolation: Interpolation) -> Result<MotionPath, String> {
         if keys.len() < 2 {
             return Err(format!("a path needs at least two keyframes, not {}", keys.len()));
@@ -118,9 +120,6 @@ impl MotionPath {
         for (i, k) in keys.iter().enumerate() {
             if !(k.time.is_finite() && k.translation.is_finite()) {
                 return Err(format!("keyframe {i}: time and translation must be finite"));
-            }
-            if !(0.0..=1.0).contains(&k.time) {
-                return Err(format!("keyframe {i}: time {} is outside the shutter interval [0, 1]", k.time));
             }
             if i > 0 && k.time <= keys[i - 1].time {
                 return Err(format!("keyframe {i}: times must increase (time {} after {})", k.time, keys[i - 1].time));
@@ -220,14 +219,64 @@ impl MotionPath {
         Aabb { min: b.min - slack, max: b.max + slack }
     }
 
+    /// A box that holds the translation at every scene time `shutter` exposes (held at the
+    /// end keys' outside them): per segment it overlaps, its values at the overlap's ends and
+    /// at the roots of its derivative inside it, widened by [`BOUND_SLACK_ULPS`]. A shutter
+    /// over all the keys gets [`MotionPath::bounds`] itself (a still's keys in `[0, 1]`: the
+    /// same box, the same tree); a frame of a long animation gets its own span's, so its tree
+    /// stays tight.
+    pub fn bounds_over(&self, shutter: Shutter) -> Aabb {
+        let (first, last) = (self.keys[0].time, self.keys[self.keys.len() - 1].time);
+        if shutter.open <= first && shutter.close >= last {
+            return self.bounds();
+        }
+        // The points the box holds; the slack's magnitude grows with them.
+        let mut b = Aabb::EMPTY;
+        let mut magnitude = Vec3A::ZERO;
+        let add = |p: Vec3A, b: &mut Aabb, magnitude: &mut Vec3A| {
+            *b = b.grow(p);
+            *magnitude = magnitude.max(p.abs());
+        };
+        if shutter.open < first {
+            add(self.segments[0].d, &mut b, &mut magnitude);
+        }
+        if shutter.close > last {
+            add(self.segments[self.segments.len() - 1].e, &mut b, &mut magnitude);
+        }
+        for s in &self.segments {
+            let (ua, ub) = (((shutter.open - s.t0) / s.h).max(0.0), ((shutter.close - s.t0) / s.h).min(1.0));
+            if ua > ub {
+                continue;
+            }
+            add(s.at_u(ua), &mut b, &mut magnitude);
+            add(s.at_u(ub), &mut b, &mut magnitude);
+            if s.cubic {
+                magnitude = magnitude.max(s.a.abs() + s.b.abs() + s.c.abs() + s.d.abs());
+                for axis in 0..3 {
+                    let roots = derivative_roots(s.a[axis], s.b[axis], s.c[axis]);
+                    for u in roots.into_iter().flatten().filter(|&u| u > ua && u < ub) {
+                        let v = s.cubic_at(u)[axis];
+                        b.min[axis] = b.min[axis].min(v);
+                        b.max[axis] = b.max[axis].max(v);
+                    }
+                }
+            }
+        }
+        let slack = magnitude * (BOUND_SLACK_ULPS * f32::EPSILON);
+        Aabb { min: b.min - slack, max: b.max + slack }
+    }
+
     /// The box of a shape whose box at rest is `rest` over the whole path: `rest` moved by
     /// [`MotionPath::bounds`], widened by [`BOUND_SLACK_ULPS`] of its own magnitude for the
     /// rounding of the sums (the shape's coordinates plus the translation).
     pub fn sweep(&self, rest: Aabb) -> Aabb {
-        let path = self.bounds();
-        let (min, max) = (rest.min + path.min, rest.max + path.max);
-        let slack = min.abs().max(max.abs()) * (BOUND_SLACK_ULPS * f32::EPSILON);
-        Aabb { min: min - slack, max: max + slack }
+        moved(rest, self.bounds())
+    }
+
+    /// [`MotionPath::sweep`] over the scene times `shutter` exposes
+    /// ([`MotionPath::bounds_over`]).
+    pub fn sweep_over(&self, rest: Aabb, shutter: Shutter) -> Aabb {
+        moved(rest, self.bounds_over(shutter))
     }
 
     /// `n + 1` points of the path at evenly spaced times from the first key to the last (a
@@ -239,10 +288,23 @@ impl MotionPath {
     }
 }
 
+/// A box at rest, `rest`, moved by every translation in `path`, widened by
+/// [`BOUND_SLACK_ULPS`] of its own magnitude for the rounding of the sums.
+fn moved(rest: Aabb, path: Aabb) -> Aabb {
+    let (min, max) = (rest.min + path.min, rest.max + path.max);
+    let slack = min.abs().max(max.abs()) * (BOUND_SLACK_ULPS * f32::EPSILON);
+    Aabb { min: min - slack, max: max + slack }
+}
+
 impl Segment {
     #[inline]
     fn at(&self, t: f32) -> Vec3A {
-        let u = (t - self.t0) / self.h;
+        self.at_u((t - self.t0) / self.h)
+    }
+
+    /// The translation at `u` in `[0, 1]` along the segment.
+    #[inline]
+    fn at_u(&self, u: f32) -> Vec3A {
         if self.cubic { self.cubic_at(u) } else { self.d.lerp(self.e, u) }
     }
 
@@ -375,7 +437,7 @@ mod tests {
             (vec![key(0.0, 0.0, 0.0)], "at least two"),
             (vec![key(0.5, 0.0, 0.0), key(0.5, 1.0, 0.0)], "increase"),
             (vec![key(0.6, 0.0, 0.0), key(0.2, 1.0, 0.0)], "increase"),
-            (vec![key(0.0, 0.0, 0.0), key(1.5, 1.0, 0.0)], "outside"),
+            (vec![key(0.0, 0.0, 0.0), key(f32::INFINITY, 1.0, 0.0)], "finite"),
             (vec![key(0.0, f32::NAN, 0.0), key(1.0, 1.0, 0.0)], "finite"),
         ];
         for (keys, want) in cases {

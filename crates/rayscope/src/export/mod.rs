@@ -211,6 +211,7 @@ pub fn export_scene(scene: &Scene, format: ExportFormat, dir: &Path, stem: &str)
         camera_motion: scene.camera_path.as_ref().map(MotionDesc::from),
         environment: environment_desc(scene, stem, &mut files)?,
         render: scene.render.clone(),
+        animation: scene.animation,
     };
     files.append(&mut textures.into_files());
     let scene_name = format!("{stem}.toml");

@@ -3,6 +3,7 @@
 //! (a test checks them against the files when the asset folder is present); the others name
 //! course files in the asset folder.
 
+use crate::animation::{AnimationSettings, FrameRange};
 use crate::camera::CameraDesc;
 use crate::error::{Error, Result};
 use crate::gradient::GradientKey;
@@ -60,7 +61,7 @@ pub const BUILTINS: &[BuiltinInfo] = &[
     },
     BuiltinInfo {
         name: "cornell-box-motion",
-        description: "Cornell box, a sphere on a keyframed Catmull-Rom loop (motion blur with --spp)",
+        description: "Cornell box, a sphere on a keyframed Catmull-Rom loop (motion blur with --spp; --frames: 24 at 24 fps)",
         needs_assets: false,
     },
     BuiltinInfo {
@@ -156,7 +157,11 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
                 vec![Light::Point { position: l(3.0, 0.0, 3.0), color: Vec3::splat(15.0) }],
             )
         }
-        "cornell-box-motion" => scene(name, vec![cornell_box()], vec![path_sphere()], vec![point(0.0, 0.58, 0.0)]),
+        "cornell-box-motion" => SceneDesc {
+            // The sphere's loop takes one second and ends where it starts: 24 frames loop.
+            animation: Some(AnimationSettings { frames: Some(FrameRange { start: 0, end: 24 }), ..Default::default() }),
+            ..scene(name, vec![cornell_box()], vec![path_sphere()], vec![point(0.0, 0.58, 0.0)])
+        },
         "shading-models" => shading_models(name),
         "monkey" => {
             scene(name, vec![asset("monkey-rotated.obj")], vec![], vec![point(-1.0, 1.0, -1.0), point(1.0, -1.0, -1.0)])

@@ -27,6 +27,11 @@
 //! [render]                      # any field of RenderSettings
 //! max_depth = 3
 //!
+//! [animation]                   # render --frames: motion keys are seconds of scene time
+//! fps = 24                      # frame F exposes [F / fps, (F + shutter) / fps]
+//! frames = "0..48"              # A..B (B excluded) or A..=B
+//! shutter = 0.5                 # the part of a frame the shutter is open (180 degrees)
+//!
 //! [environment]                 # an equirectangular map that rays which miss return
 //! path = "sky.hdr"              # .hdr, .exr or .png, 2:1, relative to this file
 //! intensity = 1.0
@@ -39,6 +44,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::{Mesh, Scene, SceneSphere};
+use crate::animation::AnimationSettings;
 use crate::camera::CameraDesc;
 use crate::environment::{Environment, EnvironmentDesc};
 use crate::error::{Error, Result};
@@ -80,6 +86,9 @@ pub struct SceneDesc {
     /// Render settings the scene asks for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render: Option<RenderSettings>,
+    /// How the scene is animated (`[animation] fps, frames, shutter`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation: Option<AnimationSettings>,
     /// The environment map that rays which miss return (`[environment] path, intensity,
     /// rotation`); `None`: the background colour.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -101,7 +110,7 @@ pub enum MotionDesc {
     },
     /// Along keyframes.
     Keys {
-        /// The keys, `(time, translation)`, times in `[0, 1]` increasing.
+        /// The keys, `(time, translation)`, times in seconds of scene time, increasing.
         keys: Vec<Keyframe>,
         /// How the path goes between them.
         interpolation: Interpolation,
@@ -596,6 +605,7 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
     );
     scene.camera_end = desc.camera_end.clone();
     scene.camera_path = motion(&desc.camera_motion)?;
+    scene.animation = desc.animation;
     scene.environment = desc.environment.as_ref().map(|e| Environment::load(e, &ctx.base_dir)).transpose()?;
     scene.warnings = warnings;
     scene.outline = outline;
@@ -611,8 +621,8 @@ fn motion(d: &Option<MotionDesc>) -> Result<Option<MotionPath>> {
 /// table (`[camera]`) or in one of an array of tables (the third `[[light]]`).
 #[derive(Debug)]
 struct BadValue {
-    /// The table's name: `camera`, `camera_end`, `render`, `mesh`, `sphere`, `light` or
-    /// `environment`.
+    /// The table's name: `camera`, `camera_end`, `render`, `animation`, `mesh`, `sphere`,
+    /// `light` or `environment`.
     table: &'static str,
     /// Which of the array of tables (0-based); `None` for a single table.
     index: Option<usize>,
@@ -680,6 +690,9 @@ fn check_values(desc: &SceneDesc) -> Result<(), BadValue> {
     }
     if let Some(r) = &desc.render {
         r.validate().or_else(|e| bad("render", None, "", &e.to_string()))?;
+    }
+    if let Some(a) = &desc.animation {
+        a.validate().or_else(|e| bad("animation", None, "", &e.to_string()))?;
     }
     for (i, m) in desc.meshes.iter().enumerate() {
         let at = |key, message: &str| bad("mesh", Some(i), key, message);
@@ -803,7 +816,7 @@ fn check_transform(t: &TransformDesc) -> Result<(), &'static str> {
 }
 
 /// A motion's values: finite translations and, for keys, the rules of [`MotionPath::new`] (at
-/// least two, times in `[0, 1]` strictly increasing).
+/// least two, times finite and strictly increasing).
 fn check_motion(m: Option<&MotionDesc>) -> Result<(), String> {
     m.map_or(Ok(()), |m| m.path().map(drop))
 }

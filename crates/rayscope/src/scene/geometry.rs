@@ -1,6 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
 use super::{Hit, Mesh, PrimRef, SceneSphere};
+use crate::animation::Shutter;
 use crate::bvh::{BuildParams, Bvh, NoObserver, Occluders, PACKET, Primitives, TraversalObserver, WideTree};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
@@ -33,7 +34,9 @@ pub struct MovingShape {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ShapeMotion {
     /// Linearly, by `delta` from shutter time 0 to 1: a path of two keys at times 0 and 1,
-    /// moved as rayscope always moved it (`delta * time`), bit for bit.
+    /// moved as rayscope always moved it (`delta * time`), bit for bit. Only under
+    /// [`Shutter::STILL`], where scene time is the ray's shutter fraction (any other shutter
+    /// moves such a path as a [`ShapeMotion::Path`], held outside its keys).
     Linear {
         /// Its displacement from shutter time 0 to 1.
         delta: Vec3A,
@@ -83,6 +86,9 @@ pub struct Geometry {
     /// for every hit, and neighbouring rays hit neighbouring slots (the global order put
     /// a cache miss on every hit).
     pub slots: Vec<SlotInfo>,
+    /// The scene time the tree's bounds hold the moving shapes over; rays' shutter fractions
+    /// map onto it ([`Shutter::time`]).
+    pub shutter: Shutter,
 }
 
 /// The primitive in one BVH slot: [`Geometry::slots`].
@@ -117,15 +123,27 @@ impl Geometry {
     /// [`Geometry::build`] with these BVH build parameters (another split rule, for
     /// comparisons).
     pub fn build_with(meshes: &[Mesh], spheres: &[SceneSphere], prims: &[PrimRef], params: &BuildParams) -> Geometry {
-        let moves = |m: &Option<MotionPath>| m.as_ref().is_some_and(|m| !m.is_still());
-        let mut geometry = Geometry::default();
+        Geometry::build_for(meshes, spheres, prims, params, Shutter::STILL)
+    }
+
+    /// [`Geometry::build_with`] for the scene times `shutter` exposes: moving shapes are
+    /// bounded over those times only.
+    pub fn build_for(
+        meshes: &[Mesh],
+        spheres: &[SceneSphere],
+        prims: &[PrimRef],
+        params: &BuildParams,
+        shutter: Shutter,
+    ) -> Geometry {
+        let mut geometry = Geometry { shutter, ..Geometry::default() };
         let slot_info = |i: u32| {
             let prim = prims[i as usize];
             SlotInfo { prim, material: prim.material(meshes, spheres) }
         };
-        if meshes.iter().any(|m| moves(&m.motion)) || spheres.iter().any(|s| moves(&s.motion)) {
+        if anything_moves(meshes, spheres) {
             // Moving shapes are numbered in order: make every shape first, then reorder.
-            let shapes = all_shapes(meshes, spheres, prims, &mut geometry.moving, &mut geometry.paths);
+            let linear = shutter.is_still();
+            let shapes = all_shapes(meshes, spheres, prims, linear, &mut geometry.moving, &mut geometry.paths);
             let g = &geometry;
             let bounds = map(&shapes, |s| g.shape_bounds(s));
             geometry.bvh = Bvh::build(&bounds, params);
@@ -168,16 +186,16 @@ impl Geometry {
         let m = &self.moving[i as usize];
         let offset = match m.motion {
             ShapeMotion::Linear { delta } => delta * ray.time,
-            ShapeMotion::Path(p) => self.paths[p as usize].at(ray.time),
+            ShapeMotion::Path(p) => self.paths[p as usize].at(self.shutter.time(ray.time)),
         };
         // Moving the ray back is moving the shape forward.
         let local = Ray { origin: ray.origin - offset, ..*ray };
         m.shape.intersect(&local, t_min, t_max)
     }
 
-    /// The box of `shape` over the whole shutter interval: for a linear translation, the
-    /// union of its boxes at the two ends; along a path, its box at rest swept over the
-    /// path's bound ([`MotionPath::sweep`]).
+    /// The box of `shape` over the scene times [`Geometry::shutter`] exposes: for a linear
+    /// translation, the union of its boxes at the two ends; along a path, its box at rest swept
+    /// over the path's bound over those times ([`MotionPath::sweep_over`]).
     pub fn shape_bounds(&self, shape: &Shape) -> Aabb {
         match shape {
             Shape::Moving(i) => {
@@ -185,7 +203,7 @@ impl Geometry {
                 let b = m.shape.bounds();
                 match m.motion {
                     ShapeMotion::Linear { delta } => b.union(Aabb { min: b.min + delta, max: b.max + delta }),
-                    ShapeMotion::Path(p) => self.paths[p as usize].sweep(b),
+                    ShapeMotion::Path(p) => self.paths[p as usize].sweep_over(b, self.shutter),
                 }
             }
             s => s.bounds(),
@@ -298,6 +316,12 @@ fn shape_at(meshes: &[Mesh], spheres: &[SceneSphere], p: &PrimRef, offset: Vec3A
     }
 }
 
+/// Whether any mesh or sphere moves (has a path that does not stand still).
+pub(super) fn anything_moves(meshes: &[Mesh], spheres: &[SceneSphere]) -> bool {
+    let moves = |m: &Option<MotionPath>| m.as_ref().is_some_and(|m| !m.is_still());
+    meshes.iter().any(|m| moves(&m.motion)) || spheres.iter().any(|s| moves(&s.motion))
+}
+
 /// The motion of primitive `p`.
 fn motion_of<'a>(meshes: &'a [Mesh], spheres: &'a [SceneSphere], p: &PrimRef) -> Option<&'a MotionPath> {
     match *p {
@@ -317,6 +341,7 @@ fn all_shapes(
     meshes: &[Mesh],
     spheres: &[SceneSphere],
     prims: &[PrimRef],
+    linear: bool,
     moving: &mut Vec<MovingShape>,
     paths: &mut Vec<MotionPath>,
 ) -> Vec<Shape> {
@@ -332,7 +357,7 @@ fn all_shapes(
             };
             let motion = motion_of(meshes, spheres, p);
             let (offset, motion) = match motion {
-                Some(m) if !m.is_still() => match m.as_linear() {
+                Some(m) if !m.is_still() => match m.as_linear().filter(|_| linear) {
                     Some((start, end)) => (start, ShapeMotion::Linear { delta: end - start }),
                     None => {
                         let i = *path_index.entry(owner).or_insert_with(|| {

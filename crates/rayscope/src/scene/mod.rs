@@ -26,7 +26,8 @@ pub use crate::light::{Light, LightSample};
 pub use crate::material::{Material, MaterialDesc, Texture};
 pub use crate::ray::Ray;
 
-use crate::bvh::{BvhStats, LoggedQuery, NoObserver, NodeLog, TraversalObserver, WideBox, WideRef};
+use crate::animation::{AnimationSettings, Shutter};
+use crate::bvh::{BuildParams, BvhStats, LoggedQuery, NoObserver, NodeLog, TraversalObserver, WideBox, WideRef};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::environment::Environment;
 use crate::error::Result;
@@ -150,6 +151,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Render settings the scene asks for (overridable by the user).
     pub render: Option<RenderSettings>,
+    /// How the scene file animates it (`[animation]`; overridable by the user).
+    pub animation: Option<AnimationSettings>,
     /// The environment map rays that miss return (`None`: the background colour).
     pub environment: Option<Environment>,
     /// Global primitive id to primitive.
@@ -225,6 +228,7 @@ impl Scene {
             textures,
             lights,
             render,
+            animation: None,
             environment: None,
             prims,
             geometry,
@@ -246,7 +250,39 @@ impl Scene {
             start: self.camera(),
             end: self.camera_end.as_ref().map(Camera::from_desc),
             path: self.camera_path.clone(),
+            shutter: self.shutter(),
         }
+    }
+
+    /// The scene time an image of the scene exposes ([`Shutter::STILL`] unless
+    /// [`Scene::set_shutter`] chose a frame's).
+    pub fn shutter(&self) -> Shutter {
+        self.geometry.shutter
+    }
+
+    /// Expose the scene times `shutter` covers (a frame of an animation): the BVH is rebuilt
+    /// around the moving shapes' bounds over those times when anything moves (a static
+    /// scene's tree does not depend on them and is kept).
+    pub fn set_shutter(&mut self, shutter: Shutter) {
+        if shutter == self.geometry.shutter {
+            return;
+        }
+        if geometry::anything_moves(&self.meshes, &self.spheres) {
+            let start = Instant::now();
+            let params = BuildParams::default();
+            self.geometry = Geometry::build_for(&self.meshes, &self.spheres, &self.prims, &params, shutter);
+            self.build_time = start.elapsed();
+        } else {
+            self.geometry.shutter = shutter;
+        }
+    }
+
+    /// Whether anything moves over time (a mesh, a sphere or the camera): without, every
+    /// frame of an animation is the same image.
+    pub fn has_motion(&self) -> bool {
+        geometry::anything_moves(&self.meshes, &self.spheres)
+            || self.camera_path.as_ref().is_some_and(|p| !p.is_still())
+            || self.camera_end.is_some()
     }
 
     /// Interpolate every path of the scene (its meshes', spheres' and camera's) as
@@ -261,7 +297,8 @@ impl Scene {
         }
         if changed {
             let start = Instant::now();
-            self.geometry = Geometry::build(&self.meshes, &self.spheres, &self.prims);
+            let params = BuildParams::default();
+            self.geometry = Geometry::build_for(&self.meshes, &self.spheres, &self.prims, &params, self.shutter());
             self.build_time = start.elapsed();
         }
     }
@@ -414,7 +451,7 @@ impl Scene {
             }
             PrimRef::Sphere(s) => {
                 let s = &self.spheres[s as usize];
-                let center = s.center + s.motion.as_ref().map_or(Vec3A::ZERO, |m| m.at(ray.time));
+                let center = s.center + s.motion.as_ref().map_or(Vec3A::ZERO, |m| m.at(self.shutter().time(ray.time)));
                 let n = ((point - center) / s.radius).normalize_or_zero();
                 // Spherical coordinates, for textured spheres.
                 let uv = Vec2::new(
