@@ -21,6 +21,9 @@ mod compare;
 mod env_args;
 mod export;
 pub mod frames;
+mod k8s;
+mod parts;
+mod slurm;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -78,6 +81,15 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Measure the course report's performance table on this machine.
     Bench(BenchArgs),
+    /// Merge the partial films of every part of a render (`render --part K/N`) into its
+    /// image, which equals the render in one process bit for bit.
+    Merge(parts::MergeArgs),
+    /// Write (and with --submit, run and watch) a Slurm job array rendering a scene in
+    /// --parts parts, and the job that merges them.
+    Slurm(slurm::SlurmArgs),
+    /// Print a Kubernetes Indexed Job rendering a scene in --parts parts, and the Job that
+    /// merges them.
+    K8s(k8s::K8sArgs),
     /// Open the viewer and visual debugger (needs the `viewer` feature: `cargo run -p
     /// rayscope-cli --features viewer -- view`).
     View(ViewArgs),
@@ -189,7 +201,7 @@ enum ViewArg {
 }
 
 #[derive(Args)]
-struct SceneArgs {
+pub(crate) struct SceneArgs {
     /// A built-in scene name (see `rayscope scenes`), a .toml scene file or a mesh file (.obj,
     /// .ply, .gltf or .glb).
     #[arg(default_value = builtin::DEFAULT_SCENE)]
@@ -356,17 +368,19 @@ struct RenderArgs {
     /// Ctrl-C.
     #[arg(long)]
     progressive: bool,
-    /// With --progressive: stop at this many samples per pixel.
-    #[arg(long, value_name = "N", requires = "progressive")]
+    /// With --progressive (or --resume): stop at this many samples per pixel.
+    #[arg(long, value_name = "N")]
     target_spp: Option<u32>,
-    /// With --progressive: stop after the frame that passes this many seconds.
-    #[arg(long, value_name = "SECONDS", requires = "progressive")]
+    /// With --progressive (or --resume): stop after the frame that passes this many seconds.
+    #[arg(long, value_name = "SECONDS")]
     time_limit: Option<f64>,
     /// Render this many times in one process and report the fastest render (every render
     /// gives the same image): timings with warm caches and threads, for comparisons.
     #[arg(long, value_name = "N", default_value_t = 1, conflicts_with = "progressive",
           value_parser = clap::value_parser!(u32).range(1..=1000))]
     repeat: u32,
+    #[command(flatten)]
+    parts: parts::PartArgs,
     #[command(flatten)]
     animation: frames::AnimationArgs,
 }
@@ -490,6 +504,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bvh(args) => done(bvh_split::cmd_bvh(args)),
         Command::Compare(args) => compare::cmd_compare(args),
         Command::Bench(args) => done(cmd_bench(args)),
+        Command::Merge(args) => done(parts::cmd_merge(args)),
+        Command::Slurm(args) => slurm::cmd_slurm(args),
+        Command::K8s(args) => done(k8s::cmd_k8s(args)),
         Command::View(args) => done(cmd_view(args)),
     }
 }
@@ -593,6 +610,9 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
     if animating && (args.progressive || args.repeat > 1) {
         bail!("--frames and --frame render each frame once: not with --progressive or --repeat");
     }
+    if animating && (args.parts.part.is_some() || args.parts.resume.is_some()) {
+        bail!("--frames and --frame render whole frames: not with --part or --resume");
+    }
     let load_start = std::time::Instant::now();
     let (mut scene, settings) = load(&args.scene)?;
     let animation = args.animation.resolve(&scene)?;
@@ -650,7 +670,48 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let cancel = interrupt_flag();
-    let (film, rays, elapsed) = if args.progressive {
+    let fingerprint = match (&args.parts.part, &args.parts.checkpoint, &args.parts.resume) {
+        (None, None, None) => None,
+        _ => Some(parts::fingerprint(&args.scene, &settings)?),
+    };
+    if let (Some((k, n)), Some(fingerprint)) = (args.parts.part, &fingerprint) {
+        parts::check_exr(&args.output, "--part")?;
+        let part = rayscope::partial::part::Part::new(k, n, args.parts.split.unwrap_or_default())?;
+        let out = pool.install(|| rayscope::partial::part::render_part(&scene, &settings, part, &cancel, &progress));
+        bar.finish_and_clear();
+        if !out.complete {
+            // An interrupted part is not written: merge must never take it for a whole part.
+            eprintln!("interrupted: part {k}/{n} not written; exit status {EXIT_INTERRUPTED}");
+            return Ok(ExitCode::from(EXIT_INTERRUPTED));
+        }
+        let note = samples_note(&out.film);
+        parts::write_part(&args.output, fingerprint.clone(), part, out.film)?;
+        eprintln!(
+            "{}",
+            summary(&format!(
+                "part {k}/{n} split by {}, render {:.1} ms, {note}",
+                part.split.name(),
+                out.elapsed.as_secs_f64() * 1e3
+            ))
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    let progressive = args.progressive || args.parts.resume.is_some();
+    if !progressive && (args.target_spp.is_some() || args.time_limit.is_some()) {
+        bail!("--target-spp and --time-limit need --progressive (or --resume)");
+    }
+    let checkpoint = args.parts.checkpoint.clone().or(args.parts.resume.clone());
+    if let Some(path) = &checkpoint {
+        parts::check_exr(path, "--checkpoint")?;
+        if args.target_spp.is_none() {
+            bail!("--checkpoint and --resume need --target-spp: the samples the render ends at (and stratifies over)");
+        }
+    }
+    let every = args.parts.checkpoint_every.unwrap_or(parts::DEFAULT_CHECKPOINT_SECONDS);
+    if !(every.is_finite() && every > 0.0) {
+        bail!("--checkpoint-every must be a number of seconds above 0");
+    }
+    let (film, rays, elapsed) = if progressive {
         if args.target_spp.is_none() && args.time_limit.is_none() {
             eprintln!("rendering progressively until Ctrl-C (give --target-spp or --time-limit to stop by itself)");
         }
@@ -660,13 +721,42 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
         bar.set_position(0);
         let start = std::time::Instant::now();
         let mut prog = Progressive::new(settings.clone(), ImagingMode::Dynamic, args.target_spp);
+        if let (Some(path), Some(fp)) = (&args.parts.resume, &fingerprint) {
+            let (film, frames) = parts::load_checkpoint(path, fp, args.target_spp)?;
+            if !prog.restore(film, frames) {
+                bail!("{}: the checkpoint's image size is not the settings'", path.display());
+            }
+        }
         let limit = args.time_limit.map(std::time::Duration::from_secs_f64);
+        let save = |film: &Film, frames: u32| -> Result<()> {
+            match (&checkpoint, &fingerprint) {
+                (Some(path), Some(fp)) => {
+                    let c = rayscope::partial::Checkpoint { target_spp: args.target_spp, frames };
+                    parts::save_checkpoint(path, fp, c, film)
+                }
+                _ => Ok(()),
+            }
+        };
+        let mut last_save = std::time::Instant::now();
+        let mut failed = None;
         let rays = pool.install(|| {
-            prog.run(&scene, &scene.camera_motion(), limit, &cancel, |film, _| {
+            prog.run(&scene, &scene.camera_motion(), limit, &cancel, |film, info| {
                 bar.set_position(film.sample_range().0 as u64);
+                if last_save.elapsed().as_secs_f64() >= every {
+                    last_save = std::time::Instant::now();
+                    if let Err(e) = save(film, info.frame) {
+                        failed = Some(e);
+                        return std::ops::ControlFlow::Break(());
+                    }
+                }
                 std::ops::ControlFlow::Continue(())
             })
         });
+        if let Some(e) = failed {
+            return Err(e.context("writing the checkpoint"));
+        }
+        // The last state, finished or interrupted (Ctrl-C), so that --resume goes on from it.
+        save(prog.film(), prog.frames()).context("writing the checkpoint")?;
         (prog.film().clone(), rays, start.elapsed())
     } else {
         let mut out = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));

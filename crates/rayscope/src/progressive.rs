@@ -110,6 +110,20 @@ impl Progressive {
         &self.film
     }
 
+    /// Continue from `film` (a checkpoint's, of these settings), as if its `frames` frames
+    /// had been rendered here: the render goes on to the same bits as one never stopped (the
+    /// film's sums are exact). Returns false, changing nothing, if the film's size is not the
+    /// settings'.
+    pub fn restore(&mut self, film: Film, frames: u32) -> bool {
+        if (film.width(), film.height()) != (self.settings.width, self.settings.height) {
+            return false;
+        }
+        self.film = film;
+        self.frame = frames;
+        self.last_camera = None;
+        true
+    }
+
     /// Frames since the last reset.
     pub fn frames(&self) -> u32 {
         self.frame

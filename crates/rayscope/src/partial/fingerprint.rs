@@ -27,6 +27,11 @@ impl Fingerprint {
         }
     }
 
+    /// The settings it holds, or `None` if its TOML is not a valid [`RenderSettings`].
+    pub fn render_settings(&self) -> Option<RenderSettings> {
+        toml::from_str(&self.settings).ok()
+    }
+
     /// What differs between `self` and `other`, in words (empty when they are the same):
     /// "the scene (a.toml, hash 1f.. against b.toml, hash 2e..)", "spp (4 against 8)".
     pub fn differences(&self, other: &Fingerprint) -> Vec<String> {
