@@ -146,8 +146,7 @@ pub fn render_frames(
         }
         bar.set_prefix(format!("frame {number} ({} of {count})", i + 1));
         bar.set_position(0);
-        let start = std::time::Instant::now();
-        if !render_frame(scene, settings, &frame, how, &cancel, pool, bar)? {
+        let Some(times) = render_frame(scene, settings, &frame, how, &cancel, pool, bar)? else {
             bar.finish_and_clear();
             eprintln!(
                 "interrupted during frame {number}: it was not written; {} written. Run again with \
@@ -156,15 +155,15 @@ pub fn render_frames(
                 crate::EXIT_INTERRUPTED
             );
             return Ok(ExitCode::from(crate::EXIT_INTERRUPTED));
-        }
+        };
         written += 1;
         bar.suspend(|| {
             eprintln!(
-                "frame {number}: scene time {:.4} to {:.4} s, BVH {:.1} ms, render {:.1} ms -> {}",
+                "frame {number}: scene time {:.4} to {:.4} s, BVH {}, render {:.1} ms -> {}",
                 frame.shutter.open,
                 frame.shutter.close,
-                scene.build_time.as_secs_f64() * 1e3,
-                start.elapsed().as_secs_f64() * 1e3,
+                times.bvh.map_or("kept".into(), |t| format!("{:.1} ms", t.as_secs_f64() * 1e3)),
+                times.render.as_secs_f64() * 1e3,
                 frame.output.display()
             )
         });
@@ -173,7 +172,15 @@ pub fn render_frames(
     Ok(ExitCode::SUCCESS)
 }
 
-/// Render and write one frame; `false` when Ctrl-C stopped it (nothing written).
+/// How long a frame took.
+struct FrameTimes {
+    /// The BVH's rebuild for the frame's span (`None`: the tree was kept).
+    bvh: Option<std::time::Duration>,
+    /// The render, its image and its file.
+    render: std::time::Duration,
+}
+
+/// Render and write one frame; `None` when Ctrl-C stopped it (nothing written).
 fn render_frame(
     scene: &mut Scene,
     settings: &RenderSettings,
@@ -182,8 +189,9 @@ fn render_frame(
     cancel: &AtomicBool,
     pool: &rayon::ThreadPool,
     bar: &ProgressBar,
-) -> Result<bool> {
-    scene.set_shutter(frame.shutter);
+) -> Result<Option<FrameTimes>> {
+    let bvh = scene.set_shutter(frame.shutter).then_some(scene.build_time);
+    let start = std::time::Instant::now();
     let scene = &*scene;
     let progress = |p: rayscope::render::RenderProgress| bar.set_position(p.done as u64);
     let image = match how.aov {
@@ -192,7 +200,7 @@ fn render_frame(
         None => {
             let out = pool.install(|| render_cancellable(scene, settings, cancel, &progress));
             if cancel.load(Ordering::Relaxed) || !out.complete {
-                return Ok(false);
+                return Ok(None);
             }
             if out.film.dropped() > 0 {
                 eprintln!(
@@ -207,5 +215,5 @@ fn render_frame(
         }
     };
     write_image(&image, &frame.output, how.encoding)?;
-    Ok(true)
+    Ok(Some(FrameTimes { bvh, render: start.elapsed() }))
 }

@@ -141,6 +141,10 @@ struct ViewArgs {
     /// Highlight row N (from 0) of the debugged pixel's explanation table in 3D.
     #[arg(long, value_name = "N")]
     explain_row: Option<usize>,
+    /// Show this frame of the scene's animation (its `[animation]`, or 24 fps with a half-frame
+    /// shutter), as `render --frame F` renders it; default: the still.
+    #[arg(long, value_name = "F", value_parser = clap::value_parser!(u32).range(0..=rayscope::animation::MAX_FRAME as i64))]
+    animation_frame: Option<u32>,
     /// Colour the overlay's rays by recursion depth, by kind, or by their sample's shutter time.
     #[arg(long, value_enum, value_name = "depth|kind|time")]
     color_rays_by: Option<ColorRaysBy>,
@@ -862,6 +866,7 @@ fn cmd_view(mut args: ViewArgs) -> Result<()> {
         frames: args.frames,
         compare: args.compare,
         motion_interpolation: args.scene.settings.interpolation,
+        animation_frame: args.animation_frame,
         color_by: args.color_rays_by.map(|c| match c {
             ColorRaysBy::Depth => rayscope_viewer::overlay::ColorBy::Depth,
             ColorRaysBy::Kind => rayscope_viewer::overlay::ColorBy::Kind,

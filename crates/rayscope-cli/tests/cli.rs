@@ -5,7 +5,7 @@ use std::process::{Command, Output};
 
 mod common;
 
-use common::{rayscope, stderr};
+use common::{interrupted, rayscope, stderr};
 
 #[test]
 fn default_render_works_anywhere() {
@@ -260,17 +260,8 @@ fn repeated_renders_report_the_fastest_and_write_the_same_image() {
 #[test]
 fn ctrl_c_writes_what_was_rendered() {
     let dir = tempfile::tempdir().unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_rayscope"))
-        .args(["render", "cornell-box-sphere-light", "-o", "p.png", "--progressive", "--light-samples", "8"])
-        .args(["--width", "64", "--height", "64"])
-        .current_dir(dir.path())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(status.success());
-    let out = child.wait_with_output().unwrap();
+    let args = ["render", "cornell-box-sphere-light", "-o", "p.png", "--progressive", "--light-samples", "8"];
+    let out = interrupted(dir.path(), &[&args[..], &["--width", "64", "--height", "64"]].concat(), 1500);
     let err = stderr(&out);
     // A stopped render is not a finished one: the shell's code for SIGINT, after the image.
     assert_eq!(out.status.code(), Some(130), "{err}");

@@ -2,11 +2,10 @@
 //! effect on the image, Ctrl-C and `--skip-existing`, and the flags' errors.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 mod common;
 
-use common::{rayscope, stderr};
+use common::{interrupted, rayscope, stderr};
 
 const SMALL: [&str; 6] = ["--width", "48", "--height", "40", "--spp", "4"];
 
@@ -159,17 +158,8 @@ color = [1, 1, 1]
 #[test]
 fn ctrl_c_keeps_the_frames_written_and_not_the_interrupted_one() {
     let dir = tempfile::tempdir().unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_rayscope"))
-        .args(["render", "cornell-box-motion", "--frames", "0..500", "-o", "k.png"])
-        .args(["--width", "64", "--height", "64", "--spp", "16"])
-        .current_dir(dir.path())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(status.success());
-    let out = child.wait_with_output().unwrap();
+    let args = ["render", "cornell-box-motion", "--frames", "0..500", "-o", "k.png", "--width", "64", "--height", "64"];
+    let out = interrupted(dir.path(), &[&args[..], &["--spp", "16"]].concat(), 1500);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(130), "{err}");
     assert!(err.contains("interrupted during frame") && err.contains("--skip-existing"), "{err}");

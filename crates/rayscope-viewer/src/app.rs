@@ -68,6 +68,8 @@ pub struct ViewerOptions {
     pub compare: Option<PathBuf>,
     /// Interpolate every keyframed path of the scene this way (default: the scene file's).
     pub motion_interpolation: Option<rayscope::motion::Interpolation>,
+    /// Show this frame of the scene's animation (default: the still).
+    pub animation_frame: Option<u32>,
     /// Colour the overlay's rays this way (default: by depth).
     pub color_by: Option<crate::overlay::ColorBy>,
     /// The environment map's flags, over the scene file's (`--env-map`, `--env-intensity`,
@@ -147,6 +149,9 @@ impl RayscopeApp {
         let mut state = ViewerState::new(&spec, opts.assets.clone());
         if let Some(i) = opts.motion_interpolation {
             state.set_motion_interpolation(i);
+        }
+        if opts.animation_frame.is_some() {
+            state.set_frame(opts.animation_frame);
         }
         if let Some(c) = opts.color_by {
             state.color_by = c;

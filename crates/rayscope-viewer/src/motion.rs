@@ -1,8 +1,10 @@
 //! Motion along paths in the viewer: each moving object's and the moving camera's path drawn
 //! (a polyline of the evaluated curve, the keys marked with crosses), rays coloured by their
-//! shutter time, and the *Motion* panel (the paths listed, the interpolation shown and edited).
+//! shutter time, and the *Motion* panel (the paths listed, the interpolation shown and edited,
+//! and the timeline: the still or a frame of the animation, a frame slider and *Play*).
 
 use egui::Ui;
+use rayscope::animation::{AnimationSettings, MAX_FRAME};
 use rayscope::math::{Vec3, Vec3A};
 use rayscope::motion::{Interpolation, MotionPath};
 use rayscope::record::RecordedRay;
@@ -142,11 +144,74 @@ pub fn panel(ui: &mut Ui, st: &mut ViewerState) {
             })
             .collect();
         ui.label(format!("{}: {} keys, {}", t.name, keys.len(), t.path.interpolation().name()))
-            .on_hover_text(format!("Keys (shutter time: translation):\n{}", lines.join("\n")));
+            .on_hover_text(format!("Keys (scene time in seconds: translation):\n{}", lines.join("\n")));
     }
     if chosen != current {
         st.set_motion_interpolation(chosen);
     }
+    timeline(ui, st, last_key_time(&st.scene));
+}
+
+/// The time of the last key of any path of `scene` (0 without paths).
+fn last_key_time(scene: &Scene) -> f32 {
+    moving_things(scene).iter().filter_map(|t| t.path.keys().last()).map(|k| k.time).fold(0.0, f32::max)
+}
+
+/// The last frame the timeline offers: the scene's `[animation] frames`' last, else the frame
+/// at the last key (at least 1).
+pub fn last_frame(animation: &AnimationSettings, last_key: f32) -> u32 {
+    animation
+        .frames
+        .map_or_else(|| ((last_key as f64 * animation.fps).ceil() as u32).clamp(1, MAX_FRAME), |r| r.end - 1)
+}
+
+/// The timeline: *Animate* (the still, or a frame of the animation), the frame slider with
+/// the span of scene time the frame exposes, and *Play*.
+fn timeline(ui: &mut Ui, st: &mut ViewerState, last_key: f32) {
+    let animation = st.animation();
+    let first = animation.frames.map_or(0, |r| r.start);
+    let last = last_frame(&animation, last_key).max(first);
+    let mut animate = st.frame.is_some();
+    ui.checkbox(&mut animate, "Animate").on_hover_text(format!(
+        "Off: the still, scene time 0 to 1 s (motion blur over it). On: a frame of the animation at {} fps, \
+         exposing [F / fps, (F + shutter) / fps] with a shutter of {} of a frame, as `render --frame F` \
+         renders it (the scene's [animation], or the defaults). The view's camera stays the trackball's",
+        animation.fps, animation.shutter
+    ));
+    let mut frame = st.frame.map(|f| f.clamp(first, last));
+    if animate != frame.is_some() {
+        frame = animate.then_some(first);
+        st.playing = false;
+    }
+    if let Some(f) = frame.as_mut() {
+        let shutter = animation.shutter_of(*f);
+        ui.add(egui::Slider::new(f, first..=last).text("Frame")).on_hover_text(
+            "The frame the ray tracer shows; the BVH is rebuilt around the moving shapes over the frame's span only",
+        );
+        ui.horizontal(|ui| {
+            let label = if st.playing { "Pause" } else { "Play" };
+            if ui.button(label).on_hover_text("Step through the frames at the animation's rate, looping").clicked() {
+                st.playing = !st.playing;
+            }
+            ui.label(format!("scene time {:.4} to {:.4} s", shutter.open, shutter.close)).on_hover_text(
+                "The span of the scene's timeline this frame exposes: each sample sees the scene at a time in it",
+            );
+        });
+        if st.playing {
+            // One frame per 1 / fps seconds of wall time; the image shows what it has gathered.
+            let now = ui.input(|i| i.time);
+            let step = 1.0 / animation.fps;
+            let since = st.play_clock.get_or_insert(now);
+            if now - *since >= step {
+                *since = now;
+                *f = if *f >= last { first } else { *f + 1 };
+            }
+            ui.ctx().request_repaint_after(std::time::Duration::from_secs_f64(step));
+        } else {
+            st.play_clock = None;
+        }
+    }
+    st.set_frame(frame);
 }
 
 fn interpolation_label(i: Interpolation) -> &'static str {
@@ -169,6 +234,7 @@ fn interpolation_tooltip(i: Interpolation) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rayscope::animation::Shutter;
     use rayscope::scene::{LoadContext, SceneDesc};
 
     const SCENE: &str = r#"
@@ -231,6 +297,26 @@ keys = [[0, [0, 0, 0]], [1, [0.1, 0, 0]]]
             let c = time_color(sample.time);
             assert!(lines.iter().any(|v| v.color == c), "sample {} at {}", sample.index, sample.time);
         }
+    }
+
+    #[test]
+    fn the_timeline_shows_a_frame_and_keeps_it_across_reloads() {
+        let mut st = ViewerState::new("cornell-box-motion", None);
+        assert_eq!(st.scene.shutter(), Shutter::STILL);
+        let animation = st.animation();
+        assert_eq!(last_frame(&animation, 1.0), 23, "the scene's frames 0..24");
+        let default = AnimationSettings::default();
+        assert_eq!(last_frame(&default, 2.0), 48, "else the frame at the last key");
+        st.select_pixel(340, 460);
+        let generation = st.generation;
+        st.set_frame(Some(6));
+        assert_eq!(st.scene.shutter(), animation.shutter_of(6));
+        assert!(st.generation > generation && st.selection.is_some());
+        // The debugger traces the frame: its samples' rays meet the sphere where it is then.
+        st.reload();
+        assert_eq!(st.scene.shutter(), animation.shutter_of(6), "a reload keeps the frame");
+        st.set_frame(None);
+        assert_eq!(st.scene.shutter(), Shutter::STILL);
     }
 
     #[test]

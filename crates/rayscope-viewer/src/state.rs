@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use egui::{Pos2, Rect};
 use glam::Vec3;
+use rayscope::animation::{AnimationSettings, Shutter};
 use rayscope::camera::CameraMotion;
 use rayscope::debug::{Explanation, PixelTrace, SampleChoice, trace_pixel_samples};
 use rayscope::motion::Interpolation;
@@ -180,6 +181,7 @@ pub struct OverlayKey {
     selection: Option<u64>,
     show_paths: bool,
     focal_plane: Option<crate::lens::FocalKey>,
+    frame: Option<u32>,
 }
 
 /// Everything the viewer shows and edits.
@@ -237,6 +239,13 @@ pub struct ViewerState {
     pub show_paths: bool,
     /// The interpolation every path is given on loading (`None`: the scene file's).
     pub motion_interpolation: Option<Interpolation>,
+    /// The animation frame the ray tracer shows (`None`: the still, scene time `[0, 1]`),
+    /// kept across reloads.
+    pub frame: Option<u32>,
+    /// Whether the timeline plays (steps a frame every `1 / fps` seconds).
+    pub playing: bool,
+    /// When, in the window's clock (seconds), the playing timeline last stepped.
+    pub play_clock: Option<f64>,
     /// The environment map's flags, applied to every scene loaded.
     pub env: crate::environment::EnvOverride,
     /// Which of bloom's layers the ray-traced view shows.
@@ -275,6 +284,9 @@ impl ViewerState {
             compare: None,
             show_paths: true,
             motion_interpolation: None,
+            frame: None,
+            playing: false,
+            play_clock: None,
             env: Default::default(),
             bloom_layer: Default::default(),
         };
@@ -289,6 +301,7 @@ impl ViewerState {
                 if let Some(i) = self.motion_interpolation {
                     scene.set_motion_interpolation(i);
                 }
+                scene.set_shutter(frame_shutter(&scene, self.frame));
                 self.env.apply(&mut scene);
                 self.trackball = Trackball::from_desc(&scene.camera);
                 self.settings = RenderSettings {
@@ -333,6 +346,25 @@ impl ViewerState {
     pub fn set_motion_interpolation(&mut self, interpolation: Interpolation) {
         self.motion_interpolation = Some(interpolation);
         self.reload();
+    }
+
+    /// The scene's animation settings (its `[animation]`, else the defaults).
+    pub fn animation(&self) -> AnimationSettings {
+        self.scene.animation.unwrap_or_default()
+    }
+
+    /// Show animation frame `frame` (`None`: the still): the scene exposes the frame's span
+    /// of its timeline (its BVH rebuilt around the moving shapes there) and the accumulation
+    /// restarts.
+    pub fn set_frame(&mut self, frame: Option<u32>) {
+        if frame == self.frame {
+            return;
+        }
+        self.frame = frame;
+        let shutter = frame_shutter(&self.scene, frame);
+        Arc::make_mut(&mut self.scene).set_shutter(shutter);
+        self.generation += 1;
+        self.retrace();
     }
 
     /// Back to the scene's own camera.
@@ -511,6 +543,7 @@ impl ViewerState {
             selection: self.selection.as_ref().map(|s| s.id),
             show_paths: self.show_paths,
             focal_plane: crate::lens::FocalKey::new(&self.settings, &self.focal_camera()),
+            frame: self.frame,
         }
     }
 
@@ -669,6 +702,11 @@ impl ViewerState {
             }
         }
     }
+}
+
+/// The span of scene time frame `frame` of `scene`'s animation exposes (`None`: the still's).
+fn frame_shutter(scene: &Scene, frame: Option<u32>) -> Shutter {
+    frame.map_or(Shutter::STILL, |f| scene.animation.unwrap_or_default().shutter_of(f))
 }
 
 #[cfg(test)]

@@ -265,19 +265,21 @@ impl Scene {
 
     /// Expose the scene times `shutter` covers (a frame of an animation): the BVH is rebuilt
     /// around the moving shapes' bounds over those times when anything moves (a static
-    /// scene's tree does not depend on them and is kept).
-    pub fn set_shutter(&mut self, shutter: Shutter) {
+    /// scene's tree does not depend on them and is kept). Returns whether it was rebuilt
+    /// (its time in [`Scene::build_time`]).
+    pub fn set_shutter(&mut self, shutter: Shutter) -> bool {
         if shutter == self.geometry.shutter {
-            return;
+            return false;
         }
-        if geometry::anything_moves(&self.meshes, &self.spheres) {
-            let start = Instant::now();
-            let params = BuildParams::default();
-            self.geometry = Geometry::build_for(&self.meshes, &self.spheres, &self.prims, &params, shutter);
-            self.build_time = start.elapsed();
-        } else {
+        if !geometry::anything_moves(&self.meshes, &self.spheres) {
             self.geometry.shutter = shutter;
+            return false;
         }
+        let start = Instant::now();
+        let params = BuildParams::default();
+        self.geometry = Geometry::build_for(&self.meshes, &self.spheres, &self.prims, &params, shutter);
+        self.build_time = start.elapsed();
+        true
     }
 
     /// Whether anything moves over time (a mesh, a sphere or the camera): without, every
