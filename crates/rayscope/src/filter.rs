@@ -41,6 +41,9 @@ fn gaussian_table() -> &'static [f32] {
     })
 }
 
+// Inlined into the camera rays' loop: the footprint's second instantiation of the render loop
+// moved it out of line (2.2M more instructions on the Cornell box at 300x300, 2 spp).
+#[inline(always)]
 fn warp_1d(filter: PixelFilter, u: f32) -> f32 {
     match filter {
         PixelFilter::Box => u - 0.5,
@@ -63,6 +66,7 @@ fn warp_1d(filter: PixelFilter, u: f32) -> f32 {
 impl PixelFilter {
     /// The offset from the pixel centre, in pixels, of a sample with uniform numbers `u`. The
     /// filters are separable, so each axis is warped alone; stratification of `u` carries over.
+    #[inline(always)]
     pub fn warp(self, u: Vec2) -> Vec2 {
         Vec2::new(warp_1d(self, u.x), warp_1d(self, u.y))
     }
