@@ -123,7 +123,7 @@ pub struct RayscopeApp {
     /// The environment map behind the raster view.
     env_background: crate::environment::BackgroundCache,
     last_frame: Option<FrameImage>,
-    last_job: Option<(u64, CameraMotion, bool, u32, u32)>,
+    last_job: Option<(u64, CameraMotion, Option<FalseColour>, u32, u32)>,
     headless: Option<Headless>,
     outcome: Arc<Mutex<Option<Result<(), String>>>>,
     browser: Option<FileBrowser>,
