@@ -8,7 +8,7 @@
 use serde::Serialize;
 
 use crate::camera::CameraMotion;
-use crate::film::finite_or_black;
+use crate::film::{Film, FilmSlices, add_sample, finite_or_black};
 use crate::math::Color;
 use crate::record::RayTree;
 use crate::render::{sample_time, trace_pixel};
@@ -74,7 +74,9 @@ pub fn trace_pixel_samples(
     let count = indices.len();
     let weight = 1.0 / count.max(1) as f32;
     let mut budget = max_rays;
-    let mut sum = Color::ZERO;
+    // A film of this one pixel, to which the samples are added as the render adds them.
+    let mut film = Film::new(1, 1);
+    let mut lost = Vec::new();
     let mut dropped = 0;
     let mut samples = Vec::with_capacity(count);
     for index in indices {
@@ -82,12 +84,14 @@ pub fn trace_pixel_samples(
         let color = trace_pixel(scene, settings, camera, x, y, index, &mut tree);
         budget -= tree.recorded();
         let before = dropped;
-        // Summed in sample order from zero, as the film sums them.
-        sum += finite_or_black(color, &mut dropped);
+        // Summed exactly, as the film sums them.
+        let FilmSlices { sums, counts } = film.slices_mut();
+        add_sample(&mut sums[0], finite_or_black(color, &mut dropped), 0, &mut lost);
+        counts[0] += 1;
         let time = sample_time(settings, x, y, index);
         samples.push(SampleTrace { index, weight, time, color, dropped: dropped > before, tree });
     }
-    // The film divides the sum by the count, as an `f32` (see `Film::get`).
-    let value = if count == 0 { Color::ZERO } else { sum / count as f32 };
+    film.add_residuals(lost);
+    let value = film.get(0, 0);
     PixelTrace { pixel: [x, y], samples, value }
 }
