@@ -112,7 +112,16 @@ impl Film {
     }
 
     /// The exact sum of pixel `i`'s samples (truncated to `f64` where it needs more bits).
+    #[inline]
     fn exact(&self, i: usize) -> PixelSum {
+        // Almost every film has no residuals at all: one test, not a search, per pixel.
+        if self.residuals.is_empty() { self.sum[i] } else { self.exact_with_residuals(i) }
+    }
+
+    /// [`Film::exact`] where some pixel has residuals: this one's, if any, added exactly.
+    #[cold]
+    #[inline(never)]
+    fn exact_with_residuals(&self, i: usize) -> PixelSum {
         let first = self.residuals.partition_point(|r| (r.pixel as usize) < i);
         let mine = self.residuals[first..].iter().take_while(|r| r.pixel as usize == i);
         if first == self.residuals.len() || self.residuals[first].pixel as usize != i {
@@ -248,6 +257,12 @@ fn add_exact(sum: &mut PixelSum, b: PixelSum, pixel: u32, residuals: &mut Vec<Re
     let a = *sum;
     let s = [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
     *sum = s;
+    // Adding to a zero sum (a pixel's first sample: every sample of a one-sample render) is
+    // exact: the check below, most of this function's cost, is for the later ones.
+    // (Compared as bits: a sum of -0.0 takes the check, which it passes.)
+    if a[0].to_bits() | a[1].to_bits() | a[2].to_bits() == 0 {
+        return;
+    }
     // An addition `s = a + b` is exact iff `s - a == b` and `s - b == a`: when it rounds, the
     // subtraction of the operand of larger magnitude is exact (Fast2Sum) and so differs.
     let lost = (s[0] - a[0] != b[0])

@@ -231,7 +231,7 @@ impl Geometry {
 
     /// Closest hits of up to [`PACKET`] rays, traced together when they share an origin
     /// (see [`crate::bvh::packet`]); each is what [`Geometry::intersect`] gives.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; PACKET] {
         self.wide.intersect_packet(rays, self).map(|h| self.scene_hit(h))
     }

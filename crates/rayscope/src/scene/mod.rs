@@ -334,7 +334,7 @@ impl Scene {
     /// The closest hits of up to [`crate::bvh::PACKET`] rays (camera rays of
     /// neighbouring pixels): each is what [`Scene::intersect`] gives, found in one traversal
     /// when the rays share an origin.
-    #[inline]
+    #[inline(always)]
     pub fn intersect_packet(&self, rays: &[Ray]) -> [Option<Hit>; crate::bvh::PACKET] {
         self.geometry.intersect_packet(rays)
     }
