@@ -141,20 +141,13 @@ impl Bvh {
     /// Build over primitives with these bounding boxes. Primitives whose box is not finite
     /// (NaN or infinite coordinates) are left out.
     pub fn build(bounds: &[Aabb], params: &BuildParams) -> Bvh {
-        Bvh::build_by(bounds.len(), |i| bounds[i], params)
-    }
-
-    /// [`Bvh::build`] over `count` primitives whose boxes `bound` gives by index: made where
-    /// the build needs them, without an array of every box beside the build's own (32 bytes
-    /// a triangle less at the peak of a big mesh's build).
-    pub fn build_by(count: usize, bound: impl Fn(usize) -> Aabb + Sync, params: &BuildParams) -> Bvh {
         use rayon::prelude::*;
-        let prim = |i: usize| BuildPrim::new(bound(i), i as u32);
+        let prim = |(i, b): (usize, &Aabb)| BuildPrim::new(*b, i as u32);
         // Made in place (an exact-size collect), then the rare unusable boxes dropped.
-        let mut prims: Vec<BuildPrim> = if count > PARALLEL_PASS {
-            (0..count).into_par_iter().map(prim).collect()
+        let mut prims: Vec<BuildPrim> = if bounds.len() > PARALLEL_PASS {
+            bounds.par_iter().enumerate().map(prim).collect()
         } else {
-            (0..count).map(prim).collect()
+            bounds.iter().enumerate().map(prim).collect()
         };
         prims.retain(|p| p.bounds.is_finite() && !p.bounds.is_empty());
         if prims.is_empty() {

@@ -1,5 +1,4 @@
-//! The memory a mesh needs, asked for before its meshes and BVH are built (for OBJ, once its
-//! lines are parsed: the parse's own arrays grow fallibly): a mesh too large for the memory the
+//! The memory a mesh needs, asked for before it is read: a mesh too large for the memory the
 //! process may have (an address-space limit, `ulimit -v`, or the machine's) is an error that
 //! says so ([`Error::OutOfMemory`]), not an abort in the middle of the OBJ reader or the BVH
 //! build, whose allocations are not ours to check one by one.

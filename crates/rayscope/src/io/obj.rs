@@ -254,8 +254,8 @@ impl<'p, M: Fn(&str) -> Result<Vec<ObjMaterial>>> Assembler<'p, M> {
     /// Add a chunk's elements and faces, in order with its statements.
     fn merge(&mut self, chunk: Chunk) -> Result<()> {
         let base = self.counts();
-        for (k, &count) in base.iter().enumerate().skip(1) {
-            let unbacked = if count == 0 { chunk.extremes[k].unbacked } else { None };
+        for k in 1..3 {
+            let unbacked = if base[k] == 0 { chunk.extremes[k].unbacked } else { None };
             if let Some(line) = chunk.missing[k].or(unbacked) {
                 self.missing[k].get_or_insert(self.line + line);
             }
@@ -306,7 +306,8 @@ impl<'p, M: Fn(&str) -> Result<Vec<ObjMaterial>>> Assembler<'p, M> {
             return Ok(());
         }
         let before = self.faces.v.len();
-        for (k, (stored, &first)) in chunk.corners.iter().zip(&base).enumerate() {
+        for k in 0..3 {
+            let stored = &chunk.corners[k];
             let list = match k {
                 0 => &mut self.faces.v,
                 1 => &mut self.faces.t,
@@ -323,7 +324,7 @@ impl<'p, M: Fn(&str) -> Result<Vec<ObjMaterial>>> Assembler<'p, M> {
                 list.resize(before + range.len(), u32::MAX);
                 continue;
             }
-            list.extend(stored[range.clone()].iter().map(|&s| match resolve(s, first) {
+            list.extend(stored[range.clone()].iter().map(|&s| match resolve(s, base[k]) {
                 MISSING => u32::MAX,
                 i => i as u32,
             }));
@@ -477,27 +478,21 @@ impl<'p, M: Fn(&str) -> Result<Vec<ObjMaterial>>> Assembler<'p, M> {
         // The file's lists are no longer needed: freed before the caller builds on the meshes.
         let path = self.path;
         let duplicates = self.duplicates;
-        let out = std::mem::take(&mut self.out);
+        let mut out = std::mem::take(&mut self.out);
         drop(self);
-        completed(out, duplicates, path)
+        if out.meshes.is_empty() {
+            return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
+        }
+        if duplicates > 0 {
+            out.warnings.push(format!(
+                "{}: {duplicates} duplicate face{} (the same three vertices, in the same order, as an earlier face of \
+                 its group) dropped",
+                path.display(),
+                if duplicates == 1 { "" } else { "s" }
+            ));
+        }
+        Ok(out)
     }
-}
-
-/// The file read (`out`, of the file at `path`): an error if it has no faces, else with the
-/// warning of the `duplicates` faces dropped, if any.
-pub(super) fn completed(mut out: ObjFile, duplicates: usize, path: &Path) -> Result<ObjFile> {
-    if out.meshes.is_empty() {
-        return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
-    }
-    if duplicates > 0 {
-        out.warnings.push(format!(
-            "{}: {duplicates} duplicate face{} (the same three vertices, in the same order, as an earlier face of its \
-             group) dropped",
-            path.display(),
-            if duplicates == 1 { "" } else { "s" }
-        ));
-    }
-    Ok(out)
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.

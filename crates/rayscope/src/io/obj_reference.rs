@@ -13,7 +13,7 @@ use super::lines::Lines;
 use super::memory::MeshSize;
 use super::mtl::ObjMaterial;
 use super::mtl::parse_mtl;
-use super::obj::{ObjFile, ObjMesh, completed, smooth_normals};
+use super::obj::{ObjFile, ObjMesh, smooth_normals};
 use super::obj_chunk::STATEMENTS;
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3};
@@ -98,7 +98,18 @@ fn read_obj(
         let group = Group { name: &model.name, mesh, material };
         out.meshes.push(unify(group, positions, &mut duplicates, scan.size, path)?);
     }
-    completed(out, duplicates, path)
+    if out.meshes.is_empty() {
+        return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
+    }
+    if duplicates > 0 {
+        out.warnings.push(format!(
+            "{}: {duplicates} duplicate face{} (the same three vertices, in the same order, as an earlier face of \
+             its group) dropped",
+            path.display(),
+            if duplicates == 1 { "" } else { "s" }
+        ));
+    }
+    Ok(out)
 }
 
 /// Run `tobj` over `faces`, calling `load_library` for each `mtllib` line.

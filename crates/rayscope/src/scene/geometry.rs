@@ -154,7 +154,8 @@ impl Geometry {
             // once, in slot order, beside its slot's information (a shapes array in global
             // order and a reordering pass were a third of the build on two cores).
             let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
-            geometry.bvh = Bvh::build_by(prims.len(), |i| shape(&prims[i]).bounds(), params);
+            let bounds = map(prims, |p| shape(p).bounds());
+            geometry.bvh = Bvh::build(&bounds, params);
             let order = &geometry.bvh.prim_indices;
             let both = |&i: &u32| (shape(&prims[i as usize]), slot_info(i));
             (geometry.shapes, geometry.slots) = if order.len() > PARALLEL_PASS {
