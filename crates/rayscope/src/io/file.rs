@@ -116,6 +116,11 @@ impl Bounded {
         Error::io(&self.path, e)
     }
 
+    /// Start again from the first byte.
+    pub fn rewind(&mut self) -> Result<()> {
+        self.seek(SeekFrom::Start(0)).map(drop).map_err(|e| self.error(e))
+    }
+
     /// The position: the bytes read (or sought past) before it.
     pub fn position(&self) -> u64 {
         self.read

@@ -1,5 +1,4 @@
-//! Reading course files: OBJ meshes ([`obj`], its lines parsed in chunks on all cores by
-//! [`obj_chunk`], numbers by [`decimal`]), their MTL material libraries ([`mtl`]) and
+//! Reading course files: OBJ meshes ([`obj`]), their MTL material libraries ([`mtl`]) and
 //! texture images ([`texture`], decoded by [`image_file`], which `rayscope compare` reads
 //! images with too), each through [`file`], which reads only regular files and no
 //! more than a set number of bytes, the text files line by line ([`lines`]). Before a mesh is
@@ -8,7 +7,6 @@
 //! and glTF 2.0 scenes ([`gltf`]) are read into the same groups; [`mesh_file`] tells the
 //! formats apart.
 
-pub mod decimal;
 pub mod duplicates;
 pub mod file;
 pub mod gltf;
@@ -19,8 +17,5 @@ pub mod memory;
 pub mod mesh_file;
 pub mod mtl;
 pub mod obj;
-pub mod obj_chunk;
-#[cfg(test)]
-mod obj_reference;
 pub mod ply;
 pub mod texture;
