@@ -66,7 +66,7 @@ pub fn render_aov(
     let rays = RayGenerator::new(camera, settings.width, settings.height);
     let shading = settings.shading_options();
     let trilinear = RenderSettings { texture_filter: TextureFilter::Trilinear, ..settings.clone() };
-    let still = CameraMotion::still(camera.clone());
+    let still = CameraMotion::still(*camera);
     let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x0, x1, y| {
         if aov == Aov::MipLevel {
             return (x0..x1).map(|x| [mip_level(scene, &trilinear, &still, x, y), 0.0, 0.0]).collect();

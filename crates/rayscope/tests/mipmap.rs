@@ -16,7 +16,7 @@ use rayscope::settings::{RenderSettings, TextureFilter};
 /// A `size x size` checkerboard of black and white squares `square` texels wide.
 fn checker(size: u32, square: u32) -> Texture {
     let texels = (0..size * size)
-        .map(|i| if (i % size / square + i / size / square) % 2 == 0 { Color::ONE } else { Color::ZERO })
+        .map(|i| if (i % size / square + i / size / square).is_multiple_of(2) { Color::ONE } else { Color::ZERO })
         .collect();
     Texture::new(size, size, texels)
 }
