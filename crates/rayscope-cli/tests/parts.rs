@@ -145,6 +145,48 @@ fn slurm_renders_merges_reports_and_resumes() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("resubmitting 1 part of 4: 2"), "{}", stderr(&o));
     assert_eq!(std::fs::read(d.join("out.pfm")).unwrap(), std::fs::read(d.join("single.pfm")).unwrap());
+    // A killed task: a job holding the whole node keeps the array's tasks waiting while task 1
+    // is killed (`scancel`); the kill is reported by index and --resume completes the render.
+    let blocker = Command::new("sbatch")
+        .args(["--parsable", "--exclusive", "--job-name=blocker", "--wrap", "sleep 120"])
+        .output()
+        .unwrap();
+    assert!(blocker.status.success(), "{}", String::from_utf8_lossy(&blocker.stderr));
+    let blocker = String::from_utf8_lossy(&blocker.stdout).trim().split(';').next().unwrap().to_string();
+    let mut args = vec!["slurm"];
+    args.extend(opts);
+    args.extend(["--parts", "4", "-o", "killed.pfm", "--wait-timeout", "120", "--submit"]);
+    let submit =
+        Command::new(env!("CARGO_BIN_EXE_rayscope")).args(&args).current_dir(d).stderr(Stdio::piped()).spawn().unwrap();
+    let started = std::time::Instant::now();
+    let array = loop {
+        let q = Command::new("squeue").args(["-h", "-n", "rayscope-parts", "-o", "%F"]).output().unwrap();
+        let id = String::from_utf8_lossy(&q.stdout).lines().next().unwrap_or("").trim().to_string();
+        if !id.is_empty() {
+            break id;
+        }
+        assert!(started.elapsed().as_secs() < 60, "the array never showed in squeue");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    for job in [format!("{array}_1"), blocker] {
+        assert!(Command::new("scancel").arg(&job).status().unwrap().success(), "scancel {job}");
+    }
+    let o = submit.wait_with_output().unwrap();
+    assert!(!o.status.success(), "{}", stderr(&o));
+    // (A task cancelled before it started leaves no record in `scontrol show job`.)
+    let report = stderr(&o);
+    assert!(
+        report.contains("1 part of 4 failed: 1 (CANCELLED") || report.contains("1 part of 4 failed: 1 (no record)"),
+        "{report}"
+    );
+    assert!(!d.join("killed.pfm").exists());
+    let mut args = vec!["slurm"];
+    args.extend(opts);
+    args.extend(["--parts", "4", "-o", "killed.pfm", "--wait-timeout", "120", "--resume"]);
+    let o = rayscope(d, &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("resubmitting 1 part of 4: 1"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(d.join("killed.pfm")).unwrap(), std::fs::read(d.join("single.pfm")).unwrap());
     // A 3-frame animation, one array task per frame: each frame as `render --frame F` makes it.
     let anim = ["cornell-box-motion", "--width", "32", "--height", "32", "--spp", "2"];
     let mut a = vec!["slurm"];
