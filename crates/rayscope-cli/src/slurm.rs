@@ -240,7 +240,10 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
                 let t = states.iter().find(|t| t.index == Some(*k));
                 format!(
                     "{k} ({})",
-                    t.map_or("no record".to_string(), |t| format!("{}, exit code {}", t.state, t.exit_code))
+                    t.map_or("no record: cancelled before it ran, or purged".to_string(), |t| format!(
+                        "{}, exit code {}",
+                        t.state, t.exit_code
+                    ))
                 )
             })
             .collect();
@@ -271,7 +274,10 @@ pub fn cmd_slurm(args: SlurmArgs) -> Result<ExitCode> {
         }
         t => bail!(
             "the merge job {merge} failed ({}); see {}/merge.log",
-            t.map_or("no record".to_string(), |t| format!("{}, exit code {}", t.state, t.exit_code)),
+            t.map_or("no record: cancelled before it ran, or purged".to_string(), |t| format!(
+                "{}, exit code {}",
+                t.state, t.exit_code
+            )),
             dir.display()
         ),
     }

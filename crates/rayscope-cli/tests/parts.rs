@@ -176,7 +176,8 @@ fn slurm_renders_merges_reports_and_resumes() {
     // (A task cancelled before it started leaves no record in `scontrol show job`.)
     let report = stderr(&o);
     assert!(
-        report.contains("1 part of 4 failed: 1 (CANCELLED") || report.contains("1 part of 4 failed: 1 (no record)"),
+        report.contains("1 part of 4 failed: 1 (CANCELLED")
+            || report.contains("1 part of 4 failed: 1 (no record: cancelled before it ran"),
         "{report}"
     );
     assert!(!d.join("killed.pfm").exists());
