@@ -8,7 +8,7 @@
 use serde::Serialize;
 
 use crate::camera::CameraMotion;
-use crate::film::{Film, FilmSlices, add_sample, finite_or_black};
+use crate::film::{Film, finite_or_black};
 use crate::math::Color;
 use crate::record::RayTree;
 use crate::render::{sample_time, trace_pixel};
@@ -76,7 +76,6 @@ pub fn trace_pixel_samples(
     let mut budget = max_rays;
     // A film of this one pixel, to which the samples are added as the render adds them.
     let mut film = Film::new(1, 1);
-    let mut lost = Vec::new();
     let mut dropped = 0;
     let mut samples = Vec::with_capacity(count);
     for index in indices {
@@ -85,13 +84,10 @@ pub fn trace_pixel_samples(
         budget -= tree.recorded();
         let before = dropped;
         // Summed exactly, as the film sums them.
-        let FilmSlices { sums, counts } = film.slices_mut();
-        add_sample(&mut sums[0], finite_or_black(color, &mut dropped), 0, &mut lost);
-        counts[0] += 1;
+        film.add(0, 0, finite_or_black(color, &mut dropped));
         let time = sample_time(settings, x, y, index);
         samples.push(SampleTrace { index, weight, time, color, dropped: dropped > before, tree });
     }
-    film.add_residuals(lost);
     let value = film.get(0, 0);
     PixelTrace { pixel: [x, y], samples, value }
 }

@@ -176,6 +176,16 @@ impl Film {
         FilmSlices { sums: &mut self.sum, counts: &mut self.count }
     }
 
+    /// Add one sample `c` (finite: see [`finite_or_black`]) to pixel `(x, y)`, exactly, as the
+    /// renderer adds its samples through [`Film::slices_mut`] and [`add_sample`].
+    pub fn add(&mut self, x: u32, y: u32, c: Color) {
+        let i = self.index(x, y);
+        let mut lost = Vec::new();
+        add_sample(&mut self.sum[i], c, i as u32, &mut lost);
+        self.count[i] += 1;
+        self.add_residuals(lost);
+    }
+
     /// Keep `more` residuals, made after the ones the film has (a pixel's residuals stay in
     /// the order they arose).
     pub fn add_residuals(&mut self, more: Vec<Residual>) {
