@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::cone::Footprint;
-use crate::film::{Film, FilmSlices, PixelSum, Residual, add_sample, finite_or_black};
+use crate::film::{Film, FilmSlices, PixelSum, Residual, add_first_sample, add_sample, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
 use crate::lens::ThinLens;
 use crate::math::{Color, Vec2};
@@ -345,7 +345,12 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             for (i, sampler) in samplers.into_iter().enumerate().take(n) {
                 let mut ctx = PathContext::new(sampler, &mut rec);
                 let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
-                add_sample(&mut sums[i], finite_or_black(c, &mut total.dropped), row + x0 + i as u32, residuals);
+                let c = finite_or_black(c, &mut total.dropped);
+                if k == 0 {
+                    add_first_sample(&mut sums[i], c);
+                } else {
+                    add_sample(&mut sums[i], c, row + x0 + i as u32, residuals);
+                }
                 total.rays.add(ctx.counts);
             }
         }
