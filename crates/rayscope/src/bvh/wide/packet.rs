@@ -460,7 +460,8 @@ where
                     lanes &= lanes - 1;
                     let r = &rays[lane];
                     if made & 1 << lane == 0 {
-                        singles[lane].write(RayLanes::new(r));
+                        // From the inverse direction the packet has: no division.
+                        singles[lane].write(RayLanes::with_inv(r, invs[lane]));
                         made |= 1 << lane;
                     }
                     // SAFETY: written above, or earlier as `made` records.
