@@ -25,6 +25,7 @@
 //! side. A fused `a * b - round(c * d)` can get the sign wrong (when `c * d` rounds past
 //! `a * b`) and the neighbour, fused the other way, wrong too: the ray would slip between.
 
+use super::aabb::SAFE_INV_MIN;
 use super::{Aabb, PrimHit};
 use crate::math::Vec3A;
 use crate::ray::Ray;
@@ -59,10 +60,32 @@ pub struct TriRay {
 }
 
 impl TriRay {
+    /// The world axes that act as x, y and z ([`TriRay::axes`]) by the axis the ray goes
+    /// fastest along: x and y follow z in cyclic order.
+    pub const AXES: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
+
     /// The permutation and shear of `ray`. A zero or non-finite direction gives NaN shears,
     /// with which no triangle is hit.
     #[inline]
     pub fn new(ray: &Ray) -> TriRay {
+        TriRay::set_up(ray, |_, d| 1.0 / d)
+    }
+
+    /// [`TriRay::new`] for a ray whose safe inverse direction (`safe_inv_dir(ray.dir)`) is
+    /// `inv`, as the traversals have it for their box tests: the same bits, without the
+    /// division. The dominant component is at least [`SAFE_INV_MIN`] in every ray but
+    /// degenerate ones (a direction shorter than 2^-64), so `inv` holds its reciprocal
+    /// exactly; those others divide, out of line. The division sat at the head of each ray's
+    /// first triangle test, whose shear waited for it.
+    #[inline(always)]
+    pub fn with_inv(ray: &Ray, inv: Vec3A) -> TriRay {
+        let inv: &[f32; 3] = inv.as_ref();
+        TriRay::set_up(ray, |z, d| if d.abs() >= SAFE_INV_MIN { inv[z] } else { reciprocal(d) })
+    }
+
+    /// The set-up, with `sz(z, d[z])` giving `1 / d[z]` for the dominant axis `z`.
+    #[inline(always)]
+    fn set_up(ray: &Ray, sz: impl Fn(usize, f32) -> f32) -> TriRay {
         // The components are read from the ray where it is (arrays, not `Vec3A`s: indexing a
         // `Vec3A` by a run-time axis is a `match`, which cost 2% of a dragon render's packet
         // traversal). A copy (`to_array`, `map`) was stored as 8 + 4 bytes and read back across
@@ -79,14 +102,18 @@ impl TriRay {
         } else {
             2
         };
-        // x and y follow z in cyclic order.
-        const AXES: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
-        let axes = AXES[z];
-        // One division (pbrt-v4 has three): once per ray, but a ray's set-up is a tenth of
-        // what a camera ray costs.
-        let sz = 1.0 / d[z];
+        let axes = TriRay::AXES[z];
+        // One reciprocal (pbrt-v4 has three divisions).
+        let sz = sz(z, d[z]);
         TriRay { axes, origin: axes.map(|k| o[k]), sx: -d[axes[0]] * sz, sy: -d[axes[1]] * sz, sz }
     }
+}
+
+/// `1 / d`, out of line: [`TriRay::with_inv`]'s rare case.
+#[cold]
+#[inline(never)]
+fn reciprocal(d: f32) -> f32 {
+    1.0 / d
 }
 
 /// The edge functions of a triangle whose sheared 2D corners are `x`, `y` (each by vertex),
@@ -338,6 +365,42 @@ mod tests {
             assert_eq!(t.intersect(&ray, h.t, h.t).map(|g| g.t), Some(h.t));
             assert!(t.intersect(&ray, 0.0, h.t.next_down()).is_none());
             assert!(t.intersect(&ray, h.t.next_up(), f32::INFINITY).is_none());
+        }
+    }
+
+    /// [`TriRay::with_inv`] is [`TriRay::new`] bit for bit: unit directions of every dominant
+    /// axis, ties, and components at and around 2^-64, zero, infinite and NaN.
+    #[test]
+    fn set_up_from_the_inverse_direction_is_the_divisions() {
+        use crate::geometry::aabb::safe_inv_dir;
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        let special = [
+            0.0,
+            -0.0,
+            SAFE_INV_MIN,
+            -SAFE_INV_MIN,
+            SAFE_INV_MIN.next_down(),
+            1e-30,
+            0.5,
+            -0.5,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        let component = |rng: &mut TestRng| {
+            if rng.random::<bool>() {
+                special[rng.random_range(0..special.len())]
+            } else {
+                rng.random_range(-1.0..1.0f32)
+            }
+        };
+        for _ in 0..50_000 {
+            let mut d = Vec3A::new(component(&mut rng), component(&mut rng), component(&mut rng));
+            if rng.random::<bool>() {
+                d *= SAFE_INV_MIN;
+            }
+            let ray = Ray::new(Vec3A::new(0.3, -2.0, 5.0), d);
+            let bits = |t: TriRay| (t.axes, t.origin.map(f32::to_bits), [t.sx, t.sy, t.sz].map(f32::to_bits));
+            assert_eq!(bits(TriRay::with_inv(&ray, safe_inv_dir(d))), bits(TriRay::new(&ray)), "{d:?}");
         }
     }
 

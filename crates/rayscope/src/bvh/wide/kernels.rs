@@ -51,6 +51,13 @@ impl RayLanes {
     pub(super) fn new(ray: &Ray) -> RayLanes {
         RayLanes { tri: TriRay::new(ray) }
     }
+
+    /// [`RayLanes::new`] from the ray's safe inverse direction `inv`, without a division
+    /// ([`TriRay::with_inv`]).
+    #[inline(always)]
+    pub(super) fn with_inv(ray: &Ray, inv: Vec3A) -> RayLanes {
+        RayLanes { tri: TriRay::with_inv(ray, inv) }
+    }
 }
 
 /// The packed tests' cold path: lanes `mask` had an edge function of exactly 0, so their three

@@ -147,96 +147,132 @@ impl<const W: usize> PacketNodeTest<W> for PortablePacketTest {
     }
 }
 
-/// The packet test of a 16-wide node in AVX-512: [`Packet::test`]'s operations on all
-/// sixteen children at once.
-#[cfg(target_arch = "x86_64")]
-pub struct Avx512PacketTest {
-    o: [std::arch::x86_64::__m512; 3],
-    lo: [std::arch::x86_64::__m512; 3],
-    hi: [std::arch::x86_64::__m512; 3],
-    slack: [std::arch::x86_64::__m512; 3],
-    t_min_lo: std::arch::x86_64::__m512,
-}
+/// A packet test of a `W`-wide node in `std::arch` intrinsics: [`Packet::test`]'s operations
+/// on all `W` children at once, one instruction per step (the portable vectors, compiled for the
+/// baseline, take two 128-bit halves per eight children, and their blends and masks several
+/// more). Given as closures, spliced in as expressions (a closure would be compiled without the
+/// caller's CPU features, and its intrinsics stay calls): `ge` is the mask of lanes `>= 0`,
+/// `pick(m, x, y)` takes `y` where `m` is set, `le(a, b)` the bit mask of lanes `a <= b`.
+macro_rules! simd_packet_test {
+    ($(#[$doc:meta])* $name:ident, $w:literal, $cpu:ident, $v:ident, $splat:ident, $load:ident, $store:ident,
+     $sub:ident, $mul:ident, $add:ident, $max:ident, $min:ident, $andnot:ident,
+     ge: |$gd:ident| $ge:expr, pick: |$pm:ident, $px:ident, $py:ident| $pick:expr,
+     le: |$la:ident, $lb:ident| $le:expr) => {
+        $(#[$doc])*
+        #[cfg(target_arch = "x86_64")]
+        pub struct $name {
+            o: [std::arch::x86_64::$v; 3],
+            lo: [std::arch::x86_64::$v; 3],
+            hi: [std::arch::x86_64::$v; 3],
+            slack: [std::arch::x86_64::$v; 3],
+            t_min_lo: std::arch::x86_64::$v,
+        }
 
-#[cfg(target_arch = "x86_64")]
-impl PacketNodeTest<16> for Avx512PacketTest {
-    type Cpu = Avx512;
+        #[cfg(target_arch = "x86_64")]
+        impl PacketNodeTest<$w> for $name {
+            type Cpu = $cpu;
 
-    #[inline(always)]
-    fn new(_: Avx512, p: &Packet) -> Self {
-        use std::arch::x86_64::_mm512_set1_ps as splat;
-        // SAFETY: the token proves that the CPU has AVX-512 F.
-        unsafe {
-            Avx512PacketTest {
-                o: [splat(p.o.x), splat(p.o.y), splat(p.o.z)],
-                lo: [splat(p.inv_lo[0]), splat(p.inv_lo[1]), splat(p.inv_lo[2])],
-                hi: [splat(p.inv_hi[0]), splat(p.inv_hi[1]), splat(p.inv_hi[2])],
-                slack: [splat(p.slack[0]), splat(p.slack[1]), splat(p.slack[2])],
-                t_min_lo: splat(p.t_min_lo),
+            #[inline(always)]
+            fn new(_: $cpu, p: &Packet) -> Self {
+                use std::arch::x86_64::$splat as splat;
+                // SAFETY: the token proves that the CPU has the intrinsics' features.
+                unsafe {
+                    $name {
+                        o: [splat(p.o.x), splat(p.o.y), splat(p.o.z)],
+                        lo: [splat(p.inv_lo[0]), splat(p.inv_lo[1]), splat(p.inv_lo[2])],
+                        hi: [splat(p.inv_hi[0]), splat(p.inv_hi[1]), splat(p.inv_hi[2])],
+                        slack: [splat(p.slack[0]), splat(p.slack[1]), splat(p.slack[2])],
+                        t_min_lo: splat(p.t_min_lo),
+                    }
+                }
+            }
+
+            #[inline(always)]
+            fn test(&self, p: &Packet, node: &WideNode<$w>, t_far: f32) -> ([f32; $w], u32) {
+                use std::arch::x86_64::*;
+                // SAFETY: the CPU has the intrinsics' features (`self` was made with their
+                // token); `d` holds `W` floats.
+                unsafe {
+                    let near = $max(
+                        $max(self.bound::<true>(node, p.near_row[0], 0), self.bound::<true>(node, p.near_row[1], 1)),
+                        $max(self.bound::<true>(node, p.near_row[2], 2), self.t_min_lo),
+                    );
+                    let far = $min(
+                        $min(self.bound::<false>(node, p.far_row[0], 0), self.bound::<false>(node, p.far_row[1], 1)),
+                        $min(self.bound::<false>(node, p.far_row[2], 2), $splat(t_far.min(f32::MAX))),
+                    );
+                    let mut d = [0.0f32; $w];
+                    $store(d.as_mut_ptr(), near);
+                    let ($la, $lb) = (near, far);
+                    (d, $le)
+                }
             }
         }
-    }
 
-    #[inline(always)]
-    fn test(&self, p: &Packet, node: &WideNode<16>, t_far: f32) -> ([f32; 16], u32) {
-        use std::arch::x86_64::*;
-        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); `d` holds sixteen
-        // floats.
-        unsafe {
-            let near = _mm512_max_ps(
-                _mm512_max_ps(self.bound::<true>(node, p.near_row[0], 0), self.bound::<true>(node, p.near_row[1], 1)),
-                _mm512_max_ps(self.bound::<true>(node, p.near_row[2], 2), self.t_min_lo),
-            );
-            let far = _mm512_min_ps(
-                _mm512_min_ps(self.bound::<false>(node, p.far_row[0], 0), self.bound::<false>(node, p.far_row[1], 1)),
-                _mm512_min_ps(self.bound::<false>(node, p.far_row[2], 2), _mm512_set1_ps(t_far.min(f32::MAX))),
-            );
-            let mut d = [0.0f32; 16];
-            _mm512_storeu_ps(d.as_mut_ptr(), near);
-            (d, u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far)))
+        #[cfg(target_arch = "x86_64")]
+        impl $name {
+            /// The bound over the packet of the distances to plane row `row` (axis `a`) of
+            /// `node`'s children: the lowest if `LOWEST`, else the highest (as in
+            /// [`Packet::test`]). A method, not a closure: a closure is compiled without the
+            /// caller's CPU features, and the intrinsics in it stayed calls.
+            #[inline(always)]
+            fn bound<const LOWEST: bool>(&self, node: &WideNode<$w>, row: usize, a: usize) -> std::arch::x86_64::$v {
+                use std::arch::x86_64::*;
+                // SAFETY: the CPU has the intrinsics' features (`self` was made with their
+                // token); nodes are 64-byte aligned and each row is `4 W` bytes (32 or 64), as
+                // the aligned load needs.
+                unsafe {
+                    let d = $sub($load(node.bounds[row].as_ptr()), self.o[a]);
+                    let $gd = d;
+                    let $pm = $ge;
+                    let ($px, $py) = if LOWEST { (self.hi[a], self.lo[a]) } else { (self.lo[a], self.hi[a]) };
+                    let inv = $pick;
+                    let b = $mul(d, inv);
+                    let margin = $add($mul($andnot($splat(-0.0), b), $splat(PACKET_EPS)), self.slack[a]);
+                    if LOWEST { $sub(b, margin) } else { $add(b, margin) }
+                }
+            }
         }
-    }
+    };
 }
 
-#[cfg(target_arch = "x86_64")]
-impl Avx512PacketTest {
-    /// The bound over the packet of the distances to plane row `row` (axis `a`) of `node`'s
-    /// children: the lowest if `LOWEST`, else the highest (as in [`Packet::test`]). A method,
-    /// not a closure: a closure is compiled without the caller's CPU features, and the
-    /// intrinsics in it stayed calls.
-    #[inline(always)]
-    fn bound<const LOWEST: bool>(&self, node: &WideNode<16>, row: usize, a: usize) -> std::arch::x86_64::__m512 {
-        use std::arch::x86_64::*;
-        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); nodes are 64-byte
-        // aligned and each row is 64 bytes, as the aligned load needs.
-        unsafe {
-            let d = _mm512_sub_ps(_mm512_load_ps(node.bounds[row].as_ptr()), self.o[a]);
-            let ge = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(d, _mm512_setzero_ps());
-            // `blend(k, x, y)` takes `y` where `k` is set.
-            let inv = if LOWEST {
-                _mm512_mask_blend_ps(ge, self.hi[a], self.lo[a])
-            } else {
-                _mm512_mask_blend_ps(ge, self.lo[a], self.hi[a])
-            };
-            let b = _mm512_mul_ps(d, inv);
-            let margin = _mm512_add_ps(_mm512_mul_ps(_mm512_abs_ps(b), _mm512_set1_ps(PACKET_EPS)), self.slack[a]);
-            if LOWEST { _mm512_sub_ps(b, margin) } else { _mm512_add_ps(b, margin) }
-        }
-    }
-}
+simd_packet_test!(
+    /// The packet test of a 16-wide node in AVX-512 (compares into mask registers).
+    Avx512PacketTest, 16, Avx512, __m512, _mm512_set1_ps, _mm512_load_ps, _mm512_storeu_ps,
+    _mm512_sub_ps, _mm512_mul_ps, _mm512_add_ps, _mm512_max_ps, _mm512_min_ps, _mm512_andnot_ps,
+    ge: |d| _mm512_cmp_ps_mask::<_CMP_GE_OQ>(d, _mm512_setzero_ps()),
+    pick: |m, x, y| _mm512_mask_blend_ps(m, x, y),
+    le: |a, b| u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b))
+);
 
-/// The widths packets traverse (8 and 16) and their inner-node test at [`SimdLevel::Avx512`];
-/// at the other levels it is [`PortablePacketTest`] (compiled for the level).
+simd_packet_test!(
+    /// The packet test of an 8-wide node in AVX2 (compares into vector masks, blends by them).
+    Avx2PacketTest, 8, Avx2, __m256, _mm256_set1_ps, _mm256_load_ps, _mm256_storeu_ps,
+    _mm256_sub_ps, _mm256_mul_ps, _mm256_add_ps, _mm256_max_ps, _mm256_min_ps, _mm256_andnot_ps,
+    ge: |d| _mm256_cmp_ps::<_CMP_GE_OQ>(d, _mm256_setzero_ps()),
+    pick: |m, x, y| _mm256_blendv_ps(x, y, m),
+    le: |a, b| _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32
+);
+
+/// The widths packets traverse (8 and 16) and their inner-node tests at [`SimdLevel::Avx2`]
+/// and [`SimdLevel::Avx512`]; at the baseline it is [`PortablePacketTest`].
 pub trait PacketWidth<const W: usize> {
+    /// The test compiled for AVX2 (the portable one, where no better exists).
+    type Avx2: PacketNodeTest<W, Cpu: From<Avx2>>;
     /// The test compiled for AVX-512.
     type Avx512: PacketNodeTest<W, Cpu: From<Avx512>>;
 }
 
 impl PacketWidth<8> for Lanes<8> {
-    type Avx512 = PortablePacketTest;
+    #[cfg(target_arch = "x86_64")]
+    type Avx2 = Avx2PacketTest;
+    #[cfg(not(target_arch = "x86_64"))]
+    type Avx2 = PortablePacketTest;
+    type Avx512 = Self::Avx2;
 }
 
 impl PacketWidth<16> for Lanes<16> {
+    type Avx2 = PortablePacketTest;
     #[cfg(target_arch = "x86_64")]
     type Avx512 = Avx512PacketTest;
     #[cfg(not(target_arch = "x86_64"))]
@@ -315,7 +351,7 @@ where
         prims: &P,
         obs: &mut [O; PACKET],
     ) -> PacketHits {
-        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, PortablePacketTest, P, O>(
+        self.packet_setup::<<Lanes<W> as NodeWidth<W>>::Avx2, <Lanes<W> as PacketWidth<W>>::Avx2, P, O>(
             cpu.into(),
             cpu.into(),
             rays,
@@ -460,7 +496,8 @@ where
                     lanes &= lanes - 1;
                     let r = &rays[lane];
                     if made & 1 << lane == 0 {
-                        singles[lane].write(RayLanes::new(r));
+                        // From the inverse direction the packet has: no division.
+                        singles[lane].write(RayLanes::with_inv(r, invs[lane]));
                         made |= 1 << lane;
                     }
                     // SAFETY: written above, or earlier as `made` records.

@@ -242,8 +242,9 @@ where
         prims: &P,
         obs: &mut O,
     ) -> Option<BvhHit> {
-        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir), self.reach);
-        let lanes = RayLanes::new(ray);
+        let inv = safe_inv_dir(ray.dir);
+        let boxes = T::new(cpu, ray, inv, self.reach);
+        let lanes = RayLanes::with_inv(ray, inv);
         let (t_min, mut t_max) = (ray.t.min, ray.t.max);
         let mut best = None;
         // Entries: a child reference and its entry distance, so that entries a closer hit
@@ -445,8 +446,9 @@ where
         prims: &P,
         obs: &mut O,
     ) -> bool {
-        let boxes = T::new(cpu, ray, safe_inv_dir(ray.dir), self.reach);
-        let lanes = RayLanes::new(ray);
+        let inv = safe_inv_dir(ray.dir);
+        let boxes = T::new(cpu, ray, inv, self.reach);
+        let lanes = RayLanes::with_inv(ray, inv);
         let (t_min, t_max) = (ray.t.min, ray.t.max);
         let mut stack: Stack<ChildRef> = Stack::new();
         let mut current = ChildRef::ROOT;
