@@ -20,6 +20,7 @@ use super::memory::MeshSize;
 #[cfg(test)]
 use super::mtl::parse_mtl;
 use super::mtl::{ObjMaterial, read_mtl};
+use super::obj_parallel::read_obj_parallel;
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3};
 
@@ -54,9 +55,18 @@ pub struct ObjFile {
 }
 
 /// Load an OBJ file and the MTL files it names (regular files, within
-/// [`super::file::max_file_bytes`]). The file is streamed twice, never held whole: once by
-/// the scan that checks it, then by `tobj`.
+/// [`super::file::max_file_bytes`]). The file is streamed, never held whole: read in parallel
+/// by [`read_obj_parallel`] where it has the common forms only, else twice, by the scan that
+/// checks it, then by `tobj`.
 pub fn load_obj(path: &Path) -> Result<ObjFile> {
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let read_library = |mtl: &str| {
+        let p = dir.join(mtl);
+        read_mtl(Lines::File(&mut open(&p)?.buffered()), &p)
+    };
+    if let Some(file) = read_obj_parallel(path, || open(path), read_library)? {
+        return Ok(file);
+    }
     let mut reader = open(path)?.buffered();
     let scan = scan_obj(Lines::File(&mut reader), path)?;
     scan.size.reserve(path)?;
@@ -64,20 +74,37 @@ pub fn load_obj(path: &Path) -> Result<ObjFile> {
     file.rewind()?;
     // tobj reads what the scan checked and no more, should the file have grown since.
     let faces = BufReader::with_capacity(BUFFER_BYTES, file.take(scan.bytes));
-    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    read_obj(faces, scan, path, |mtl| {
-        let p = dir.join(mtl);
-        read_mtl(Lines::File(&mut open(&p)?.buffered()), &p)
-    })
+    read_obj(faces, scan, path, read_library)
 }
 
 /// Parse OBJ text. `path` names it in errors; `read_mtl` returns the path and text of an MTL
 /// file named by `mtllib`. A file without faces is an error: it is not a mesh. (For the unit
-/// tests: files are read by [`load_obj`].)
+/// tests: files are read by [`load_obj`].) The parallel reader and the checked one must agree:
+/// where both read the text, their files are compared.
 #[cfg(test)]
 pub fn parse_obj(text: &str, path: &Path, read_mtl: impl Fn(&str) -> Result<(PathBuf, String)>) -> Result<ObjFile> {
+    let read_library = |name: &str| read_mtl(name).and_then(|(p, t)| parse_mtl(&t, &p));
+    let parallel = read_obj_parallel(path, || Ok(text.as_bytes()), read_library);
+    let checked = parse_obj_checked(text, path, read_library);
+    match (parallel, &checked) {
+        (Ok(Some(fast)), Ok(file)) => assert_eq!(&fast, file, "the parallel reader differs on {text:?}"),
+        (Ok(Some(fast)), Err(e)) => panic!("the parallel reader read {fast:?} where the checked one failed: {e}"),
+        (Err(e), Ok(_)) => panic!("the parallel reader failed ({e}) where the checked one read {text:?}"),
+        (Err(e), Err(c)) => assert_eq!(e.to_string(), c.to_string()),
+        (Ok(None), _) => {}
+    }
+    checked
+}
+
+/// Parse OBJ text with the checked reader (the scan and `tobj`) only.
+#[cfg(test)]
+pub fn parse_obj_checked(
+    text: &str,
+    path: &Path,
+    read_library: impl Fn(&str) -> Result<Vec<ObjMaterial>>,
+) -> Result<ObjFile> {
     let scan = scan_obj(Lines::Text(text), path)?;
-    read_obj(text.as_bytes(), scan, path, |name| read_mtl(name).and_then(|(p, t)| parse_mtl(&t, &p)))
+    read_obj(text.as_bytes(), scan, path, read_library)
 }
 
 /// Read the faces of an OBJ file that [`scan_obj`] checked (`scan`) with `tobj`, and its
@@ -150,9 +177,23 @@ fn read_obj(
             }
             None => None,
         };
-        let group = Group { name: &model.name, mesh, material };
-        out.meshes.push(unify(group, positions, &mut duplicates, scan.size, path)?);
+        let has_n = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
+        let has_t = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
+        let normals: Vec<Vec3> = mesh.normals.chunks_exact(3).map(Vec3::from_slice).collect();
+        let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(Vec2::from_slice).collect();
+        let corners = Corners {
+            positions,
+            indices: &mesh.indices,
+            normals: has_n.then_some((&normals[..], &mesh.normal_indices[..])),
+            uvs: has_t.then_some((&uvs[..], &mesh.texcoord_indices[..])),
+        };
+        out.meshes.push(unify(&model.name, material, corners, &mut duplicates, scan.size, path)?);
     }
+    finish(out, duplicates, path)
+}
+
+/// The file read, checked to have faces, with the warning of the `duplicates` dropped.
+pub(super) fn finish(mut out: ObjFile, duplicates: usize, path: &Path) -> Result<ObjFile> {
     if out.meshes.is_empty() {
         return Err(Error::parse(path, None, "no faces (`f` lines): nothing to render"));
     }
@@ -217,55 +258,111 @@ impl<R: BufRead> BufRead for WithoutPolylines<R> {
     }
 }
 
-/// A group of faces as `tobj` read it.
-struct Group<'a> {
-    name: &'a str,
-    mesh: &'a tobj::Mesh,
-    /// Index into [`ObjFile::materials`].
-    material: Option<usize>,
+/// The corners of a group's triangles, three a triangle, as indices into its attributes.
+pub(super) struct Corners<'a> {
+    /// The group's positions, numbered in order of first use (as `tobj` numbers them).
+    pub positions: Vec<Vec3>,
+    /// Each corner's position.
+    pub indices: &'a [u32],
+    /// The normals and each corner's, when the group has them.
+    pub normals: Option<(&'a [Vec3], &'a [u32])>,
+    /// The texture coordinates and each corner's, when the group has them.
+    pub uvs: Option<(&'a [Vec2], &'a [u32])>,
 }
 
 /// Builds one vertex per distinct (position, normal, uv) corner, generating smooth normals
 /// (area-weighted, per position so texture seams stay smooth) when the group has none, and
 /// drops duplicate faces (counted in `duplicates`). The large arrays are reserved fallibly:
 /// the file's `size` and `path` make the error of a mesh that does not fit.
-fn unify(group: Group, positions: Vec<Vec3>, duplicates: &mut usize, size: MeshSize, path: &Path) -> Result<ObjMesh> {
-    let Group { name, mesh, material } = group;
+pub(super) fn unify(
+    name: &str,
+    material: Option<usize>,
+    corners: Corners,
+    duplicates: &mut usize,
+    size: MeshSize,
+    path: &Path,
+) -> Result<ObjMesh> {
+    let Corners { positions, indices, normals, uvs } = corners;
     let oom = |_| size.out_of_memory(path);
-    let has_n = !mesh.normals.is_empty() && mesh.normal_indices.len() == mesh.indices.len();
-    let has_t = !mesh.texcoords.is_empty() && mesh.texcoord_indices.len() == mesh.indices.len();
-    let file_normals: Vec<Vec3> = if has_n {
-        mesh.normals.chunks_exact(3).map(Vec3::from_slice).collect()
-    } else {
-        smooth_normals(&positions, &mesh.indices)
+    let smooth;
+    let (file_normals, normal_indices) = match normals {
+        Some(given) => given,
+        None => {
+            smooth = smooth_normals(&positions, indices);
+            (&smooth[..], indices)
+        }
     };
-    let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(Vec2::from_slice).collect();
     let mut out = ObjMesh { name: name.to_string(), material, ..ObjMesh::default() };
+    if let Some(shared) = shared_attributes(positions.len(), indices, normal_indices, uvs.map(|(_, t)| t), size, path)?
+    {
+        // Vertices shared as the file shares them: vertex k is position k.
+        out.normals = size.vec(path, positions.len())?;
+        out.normals.extend(shared.normals.iter().map(|&n| file_normals[n as usize].normalize_or_zero()));
+        if let Some((uvs, _)) = uvs {
+            out.uvs = size.vec(path, positions.len())?;
+            out.uvs.extend(shared.uvs.iter().map(|&t| uvs[t as usize]));
+        }
+        out.positions = positions;
+        out.positions.shrink_to_fit();
+        out.triangles = without_duplicates(indices, duplicates, size, path)?;
+        return Ok(out);
+    }
     // As many vertices as positions, unless normals or texture coordinates split some.
     out.positions.try_reserve_exact(positions.len()).map_err(oom)?;
     out.normals.try_reserve_exact(positions.len()).map_err(oom)?;
     let mut map: HashMap<u128, u32, IndexHash> = HashMap::with_hasher(IndexHash::new());
     map.try_reserve(positions.len()).map_err(oom)?;
-    let mut corners = size.vec(path, mesh.indices.len())?;
-    for (k, &pi) in mesh.indices.iter().enumerate() {
-        let ni = if has_n { mesh.normal_indices[k] } else { pi };
-        let ti = if has_t { mesh.texcoord_indices[k] } else { u32::MAX };
+    let mut unified = size.vec(path, indices.len())?;
+    for (k, &pi) in indices.iter().enumerate() {
+        let ni = normal_indices[k];
+        let ti = uvs.map_or(u32::MAX, |(_, t)| t[k]);
         let next = out.positions.len() as u32;
         let idx = *map.entry(pack([pi, ni, ti])).or_insert_with(|| {
             out.positions.push(positions[pi as usize]);
             out.normals.push(file_normals[ni as usize].normalize_or_zero());
-            if has_t {
+            if let Some((uvs, _)) = uvs {
                 out.uvs.push(uvs[ti as usize]);
             }
             next
         });
-        corners.push(idx);
+        unified.push(idx);
     }
     drop(map);
     out.positions.shrink_to_fit();
     out.normals.shrink_to_fit();
-    out.triangles = without_duplicates(&corners, duplicates, size, path)?;
+    out.triangles = without_duplicates(&unified, duplicates, size, path)?;
     Ok(out)
+}
+
+/// Each position's normal and texture coordinate index.
+struct Shared {
+    normals: Vec<u32>,
+    uvs: Vec<u32>,
+}
+
+/// The normal and texture coordinate index of each of `count` positions, when every corner
+/// of a position has the same ones and positions are numbered in order of first use: then
+/// [`unify`]'s vertices are the positions, in their order, and no map of corners is needed.
+fn shared_attributes(
+    count: usize,
+    positions: &[u32],
+    normals: &[u32],
+    uvs: Option<&[u32]>,
+    size: MeshSize,
+    path: &Path,
+) -> Result<Option<Shared>> {
+    let mut shared = Shared { normals: size.vec(path, count)?, uvs: size.vec(path, uvs.map_or(0, |_| count))? };
+    for (k, &p) in positions.iter().enumerate() {
+        let p = p as usize;
+        let t = uvs.map(|t| t[k]);
+        if p == shared.normals.len() {
+            shared.normals.push(normals[k]);
+            shared.uvs.extend(t);
+        } else if p > shared.normals.len() || shared.normals[p] != normals[k] || t.is_some_and(|t| shared.uvs[p] != t) {
+            return Ok(None);
+        }
+    }
+    Ok((shared.normals.len() == count).then_some(shared))
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.
@@ -279,6 +376,20 @@ pub fn smooth_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
         }
     }
     n.iter().map(|v| v.normalize_or_zero()).collect()
+}
+
+/// The statements of the elements faces index: positions, texture coordinates, normals.
+const ELEMENTS: [&str; 3] = ["v", "vt", "vn"];
+
+/// The warning of faces that give indices of element `k` (1: `vt`, 2: `vn`) in a file without
+/// any, first at `line`.
+pub(super) fn missing_warning(path: &Path, k: usize, line: usize) -> String {
+    let what = ["vertex", "texture coordinate", "normal"][k];
+    format!(
+        "{}:{line}: faces give {what} indices but the file has no `{}` lines; they are ignored",
+        path.display(),
+        ELEMENTS[k]
+    )
 }
 
 /// The numbers of a line, between `min` and `max` of them, all finite.
@@ -461,20 +572,18 @@ fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
         Ok(())
     })?;
     scan.size.vertices = counts.iter().sum::<i64>() as u64;
-    for (k, what, element) in [(1, "texture coordinate", "vt"), (2, "normal", "vn")] {
+    for k in 1..3 {
         match missing[k] {
             // Elements defined after the faces that refer to them break OBJ's rule.
             Some(line) if counts[k] > 0 => {
+                let what = ["vertex", "texture coordinate", "normal"][k];
                 return Err(Error::parse(
                     path,
                     Some(line),
-                    format!("{what} index refers to no `{element}` line before it"),
+                    format!("{what} index refers to no `{}` line before it", ELEMENTS[k]),
                 ));
             }
-            Some(line) => scan.warnings.push(format!(
-                "{}:{line}: faces give {what} indices but the file has no `{element}` lines; they are ignored",
-                path.display()
-            )),
+            Some(line) => scan.warnings.push(missing_warning(path, k, line)),
             None => {}
         }
     }
@@ -553,5 +662,79 @@ mod tests {
             other => panic!("{other:?}"),
         }
         assert!(matches!(parse_obj(obj, Path::new("t.obj"), no_mtl), Err(Error::Io { .. })));
+    }
+
+    /// An OBJ text of `v` positions, `t` texture coordinates and `n` normals, then faces
+    /// (each given as corners of (position, uv, normal) choices, relative or absolute) among
+    /// group and material statements, with the line ending `end`.
+    fn generated(v: usize, t: usize, n: usize, faces: &[(u8, Vec<(usize, u8)>)], end: &str) -> String {
+        let mut text = format!("# generated{end}mtllib m.mtl{end}");
+        for i in 0..v {
+            text += &format!("v {} {:.3} -{}e-1{end}", i as f32 * 0.37, i as f32 / 7.0, i % 5);
+        }
+        for i in 0..t {
+            text += &format!("vt {} {}{end}", i as f32 * 0.1, 0.5);
+        }
+        for i in 0..n {
+            text += &format!("vn 0 {} 1{end}", i % 3);
+        }
+        for (statement, corners) in faces {
+            match statement % 8 {
+                0 => text += &format!("g part{statement}{end}"),
+                1 => text += &format!("usemtl {}{end}", ["red", "blue", "none"][*statement as usize % 3]),
+                2 => text += &format!("o{end}s 1{end}{end}"),
+                _ => {}
+            }
+            text += "f";
+            for &(c, form) in corners {
+                let rel = |count: usize| {
+                    if form & 8 != 0 { format!("-{}", count - c % count) } else { format!("{}", c % count + 1) }
+                };
+                text += &match (form % 4, t > 0, n > 0) {
+                    (1, true, _) => format!(" {}/{}", rel(v), rel(t)),
+                    (2, _, true) => format!(" {}//{}", rel(v), rel(n)),
+                    (3, true, true) => format!(" {}/{}/{}", rel(v), rel(t), rel(n)),
+                    _ => format!(" {}", rel(v)),
+                };
+            }
+            text += end;
+        }
+        text
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_parallel_reader_equals_the_checked_one(
+            v in 3usize..12,
+            t in 0usize..4,
+            n in 0usize..4,
+            faces in proptest::collection::vec(
+                (0u8..24, proptest::collection::vec((0usize..40, 0u8..16), 3..6)), 1..12),
+            crlf in proptest::bool::ANY,
+        ) {
+            let text = generated(v, t, n, &faces, if crlf { "\r\n" } else { "\n" });
+            let mtl = |_: &str| Ok((PathBuf::from("m.mtl"), "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n".to_string()));
+            let read_library = |name: &str| mtl(name).and_then(|(p, t)| parse_mtl(&t, &p));
+            // Both readers read it (`parse_obj` compares them), and the fast one did not give it back.
+            parse_obj(&text, Path::new("g.obj"), mtl).unwrap();
+            let fast = read_obj_parallel(Path::new("g.obj"), || Ok(text.as_bytes()), read_library).unwrap();
+            proptest::prop_assert!(fast.is_some(), "given back: {text:?}");
+        }
+    }
+
+    #[test]
+    fn mixed_corners_and_late_elements_read_alike() {
+        // Corners without normals in a file with some (tobj gives them the previous corner's),
+        // normals after the faces (the group has them: they are read before it ends),
+        // and texture coordinate indices in a file without any (a warning).
+        for text in [
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 1 0\nf 1//2 2 3//1\nf 3 2 1\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nvn 0 0 1\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\ng a\nf 1 2 3\ng b\nf 2 4 3\nf 3 2 4\nf 1 2 3 4\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2 3\nf 1 2/1 3\n",
+        ] {
+            parse(text).unwrap();
+        }
     }
 }
