@@ -63,10 +63,10 @@ impl Film {
         Film { width, height, sum: vec![[0.0; 3]; n], count: vec![0; n], residuals: Vec::new(), dropped: 0 }
     }
 
-    /// A film from its parts (as a partial film file holds them): `None` if the sizes do not
-    /// match `width * height`, a residual names a pixel outside, or a pixel with no samples
-    /// has a sum other than +0 (a render adds a pixel's first sample without reading its sum:
-    /// [`add_first_sample`]).
+    /// A film from its parts (as a partial film file holds them), or what is wrong with them:
+    /// sizes that do not match `width * height`, a residual naming a pixel outside, or a pixel
+    /// with no samples and a sum other than +0 (a render adds a pixel's first sample without
+    /// reading its sum: [`add_first_sample`]).
     pub fn from_parts(
         width: u32,
         height: u32,
@@ -74,16 +74,16 @@ impl Film {
         count: Vec<u32>,
         mut residuals: Vec<Residual>,
         dropped: u64,
-    ) -> Option<Film> {
+    ) -> Result<Film, &'static str> {
         let n = width as usize * height as usize;
         if sum.len() != n || count.len() != n || residuals.iter().any(|r| r.pixel as usize >= n) {
-            return None;
+            return Err("channels or residuals do not fit the image size");
         }
         if count.iter().zip(&sum).any(|(n, s)| *n == 0 && s.iter().any(|v| v.to_bits() != 0)) {
-            return None;
+            return Err("a pixel with no samples has a sum");
         }
         residuals.sort_by_key(|r| r.pixel);
-        Some(Film { width, height, sum, count, residuals, dropped })
+        Ok(Film { width, height, sum, count, residuals, dropped })
     }
 
     /// Width in pixels.
@@ -396,8 +396,9 @@ mod tests {
 
     #[test]
     fn a_film_whose_empty_pixel_has_a_sum_is_refused() {
-        assert!(Film::from_parts(2, 1, vec![[0.0; 3], [0.5, 0.0, 0.0]], vec![0, 1], Vec::new(), 0).is_some());
-        assert!(Film::from_parts(2, 1, vec![[0.0, -0.0, 0.0], [0.5; 3]], vec![0, 1], Vec::new(), 0).is_none());
+        assert!(Film::from_parts(2, 1, vec![[0.0; 3], [0.5, 0.0, 0.0]], vec![0, 1], Vec::new(), 0).is_ok());
+        let e = Film::from_parts(2, 1, vec![[0.0, -0.0, 0.0], [0.5; 3]], vec![0, 1], Vec::new(), 0).unwrap_err();
+        assert_eq!(e, "a pixel with no samples has a sum");
     }
 
     /// A pixel whose samples span more binary orders than an f64 holds: its value is the

@@ -145,14 +145,9 @@ pub fn read_partial(path: &Path) -> RayResult<PartialFilm> {
     if sums.iter().flatten().any(|v| !v.is_finite()) {
         return Err(bad("a pixel's sum is not finite".into()));
     }
-    // A render adds a pixel's first sample without reading its sum (`film::add_first_sample`).
-    if counts.iter().zip(&sums).any(|(n, s)| *n == 0 && s.iter().any(|v| v.to_bits() != 0)) {
-        return Err(bad("a pixel with no samples has a sum".into()));
-    }
     let residuals =
         parse_residuals(&text("rayscope.residuals")?).ok_or_else(|| bad("bad rayscope.residuals".into()))?;
-    let film = Film::from_parts(width, height, sums, counts, residuals, dropped)
-        .ok_or_else(|| bad("channels or residuals do not fit the image size".into()))?;
+    let film = Film::from_parts(width, height, sums, counts, residuals, dropped).map_err(|e| bad(e.into()))?;
     Ok(PartialFilm { fingerprint, portion, film })
 }
 
