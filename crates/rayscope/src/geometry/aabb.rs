@@ -102,9 +102,10 @@ pub const SAFE_INV_MIN: f32 = 1.0 / 18_446_744_073_709_551_616.0;
 
 /// The reciprocal of a ray direction for slab tests, with components smaller than 2^-64
 /// ([`SAFE_INV_MIN`], zero among them) replaced by 2^-64 of the same sign: every other
-/// component's is exactly `1 / d` (the triangle test's set-up reuses it, [`crate::geometry::TriRay::with_inv`]). A plain `1 / 0 = inf` would make
-/// `0 * inf = NaN` for a ray that starts on a slab plane, and SIMD min/max do not ignore NaN:
-/// the box would be missed. The replacement's inverse, 2^64, is a power of two, so the wide
+/// component's is exactly `1 / d` (the triangle test's set-up reuses it,
+/// [`crate::geometry::TriRay::with_inv`]). A plain `1 / 0 = inf` would make `0 * inf = NaN`
+/// for a ray that starts on a slab plane, and SIMD min/max do not ignore NaN: the box would
+/// be missed. The replacement's inverse, 2^64, is a power of two, so the wide
 /// BVHs' fused slab test (`p * inv - o * inv`) computes `o * inv` exactly for such axes, and
 /// is small enough that `o * inv` cannot overflow for any origin within 10^19 of zero.
 #[inline(always)]

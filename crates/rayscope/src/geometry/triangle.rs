@@ -60,10 +60,6 @@ pub struct TriRay {
 }
 
 impl TriRay {
-    /// The world axes that act as x, y and z ([`TriRay::axes`]) by the axis the ray goes
-    /// fastest along: x and y follow z in cyclic order.
-    pub const AXES: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
-
     /// The permutation and shear of `ray`. A zero or non-finite direction gives NaN shears,
     /// with which no triangle is hit.
     #[inline]
@@ -102,7 +98,9 @@ impl TriRay {
         } else {
             2
         };
-        let axes = TriRay::AXES[z];
+        // x and y follow z in cyclic order.
+        const AXES: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
+        let axes = AXES[z];
         // One reciprocal (pbrt-v4 has three divisions).
         let sz = sz(z, d[z]);
         TriRay { axes, origin: axes.map(|k| o[k]), sx: -d[axes[0]] * sz, sy: -d[axes[1]] * sz, sz }
