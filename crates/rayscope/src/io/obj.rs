@@ -381,13 +381,16 @@ pub fn smooth_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
 /// The statements of the elements faces index: positions, texture coordinates, normals.
 const ELEMENTS: [&str; 3] = ["v", "vt", "vn"];
 
+/// What [`ELEMENTS`] are, in messages.
+const ELEMENT_NAMES: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+
 /// The warning of faces that give indices of element `k` (1: `vt`, 2: `vn`) in a file without
 /// any, first at `line`.
 pub(super) fn missing_warning(path: &Path, k: usize, line: usize) -> String {
-    let what = ["vertex", "texture coordinate", "normal"][k];
     format!(
-        "{}:{line}: faces give {what} indices but the file has no `{}` lines; they are ignored",
+        "{}:{line}: faces give {} indices but the file has no `{}` lines; they are ignored",
         path.display(),
+        ELEMENT_NAMES[k],
         ELEMENTS[k]
     )
 }
@@ -576,11 +579,10 @@ fn scan_obj(lines: Lines, path: &Path) -> Result<ObjScan> {
         match missing[k] {
             // Elements defined after the faces that refer to them break OBJ's rule.
             Some(line) if counts[k] > 0 => {
-                let what = ["vertex", "texture coordinate", "normal"][k];
                 return Err(Error::parse(
                     path,
                     Some(line),
-                    format!("{what} index refers to no `{}` line before it", ELEMENTS[k]),
+                    format!("{} index refers to no `{}` line before it", ELEMENT_NAMES[k], ELEMENTS[k]),
                 ));
             }
             Some(line) => scan.warnings.push(missing_warning(path, k, line)),
