@@ -91,9 +91,10 @@ def main():
     with tempfile.TemporaryDirectory() as work:
         folder = a.keep or work
         obj = os.path.join(folder, f"torus-{a.triangles}.obj")
-        if not os.path.exists(obj):
-            write_torus(a.triangles, obj)
-        n = sum(1 for line in open(obj) if line.startswith("f "))
+        if os.path.exists(obj):
+            n = sum(1 for line in open(obj) if line.startswith("f "))
+        else:
+            n = write_torus(a.triangles, obj)
         peers = [("rayscope", lambda: run_rayscope(a.rayscope, obj, os.path.join(work, "x.png")))]
         if a.base:
             peers.append(("rayscope (base)", lambda: run_rayscope(a.base, obj, os.path.join(work, "y.png"))))
