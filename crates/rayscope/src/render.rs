@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::bvh::PACKET;
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::cone::Footprint;
-use crate::film::{Film, FilmSlices, PixelSum, Residual, add_first_sample, add_sample, finite_or_black};
+use crate::film::{Film, FilmSlices, PassSlices, PixelAccumulator, Residual, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
 use crate::lens::ThinLens;
 use crate::math::{Color, Vec2};
@@ -116,45 +116,12 @@ fn pass_with<S: Sky, C: Footprint>(
     let settings = integrator.settings;
     let still = camera.is_still().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
     let setup = Pass::new(integrator, camera, still.as_ref(), pass);
-    let w = settings.width as usize;
-    let total = w * settings.height as usize;
-    let done = AtomicUsize::new(0);
-    let FilmSlices { sums, counts } = film.slices_mut();
-    // Bands of whole rows, rendered in place: each task owns its slice of the film, so there
-    // is no intermediate buffer to fill and copy. Every pixel's value depends only on the
-    // pixel, so the split does not change the image.
-    let band = BAND_ROWS * w;
-    let results: Vec<Band> = sums
-        .par_chunks_mut(band)
-        .zip(counts.par_chunks_mut(band))
-        .enumerate()
-        .map(|(b, (sums, counts))| {
-            if cancel.load(Ordering::Relaxed) {
-                return Band { tally: Tally::default(), residuals: Vec::new(), complete: false };
-            }
-            let mut tally = Tally::default();
-            let mut residuals = Vec::new();
-            let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
-            for (row, (sums, counts)) in rows.enumerate() {
-                let y = (b * BAND_ROWS + row) as u32;
-                let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
-                for (run, (sums, counts)) in runs.enumerate() {
-                    let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut residuals };
-                    // Pixels side by side that are at the same sample, seen by a still camera:
-                    // their camera rays share the pinhole and go through the BVH together.
-                    let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
-                    tally.add(if setup.packets && same {
-                        setup.sample_run(pixels)
-                    } else {
-                        setup.sample_alone(pixels)
-                    });
-                }
-            }
-            let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
-            progress(RenderProgress { done: d, total });
-            Band { tally, residuals, complete: true }
-        })
-        .collect();
+    // A fresh film's first pass of one sample adds to `f32` sums, any other to `f64` ones
+    // (`Film::pass_slices`): the same loop, generic over the sums.
+    let results = match film.pass_slices(pass.samples) {
+        PassSlices::Single(slices) => setup.bands(slices, cancel, progress),
+        PassSlices::Exact(slices) => setup.bands(slices, cancel, progress),
+    };
     let mut sum = Tally::default();
     let mut complete = true;
     let mut residuals = Vec::new();
@@ -245,15 +212,63 @@ struct Pass<'a, S: Sky, C: Footprint> {
 
 /// Up to [`PACKET`] pixels of row `y` from `x0` rightwards, with their running sums and sample
 /// counts in the film, and where to keep what the sums lose to rounding.
-struct PixelRun<'a> {
+struct PixelRun<'a, A> {
     x0: u32,
     y: u32,
-    sums: &'a mut [PixelSum],
+    sums: &'a mut [A],
     counts: &'a mut [u32],
     residuals: &'a mut Vec<Residual>,
 }
 
 impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
+    /// Add the pass's samples to every pixel of `film`: bands of whole rows, rendered in
+    /// place (each task owns its slice of the film, so there is no intermediate buffer to
+    /// fill and copy; every pixel's value depends only on the pixel, so the split does not
+    /// change the image). Tiles not started when `cancel` is set are skipped.
+    fn bands<A: PixelAccumulator>(
+        &self,
+        film: FilmSlices<'_, A>,
+        cancel: &AtomicBool,
+        progress: &(dyn Fn(RenderProgress) + Sync),
+    ) -> Vec<Band> {
+        let w = self.integrator.settings.width as usize;
+        let total = film.sums.len();
+        let done = AtomicUsize::new(0);
+        let band = BAND_ROWS * w;
+        film.sums
+            .par_chunks_mut(band)
+            .zip(film.counts.par_chunks_mut(band))
+            .enumerate()
+            .map(|(b, (sums, counts))| {
+                if cancel.load(Ordering::Relaxed) {
+                    return Band { tally: Tally::default(), residuals: Vec::new(), complete: false };
+                }
+                let mut tally = Tally::default();
+                let mut residuals = Vec::new();
+                let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
+                for (row, (sums, counts)) in rows.enumerate() {
+                    let y = (b * BAND_ROWS + row) as u32;
+                    let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
+                    for (run, (sums, counts)) in runs.enumerate() {
+                        let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut residuals };
+                        // Pixels side by side that are at the same sample, seen by a still
+                        // camera: their camera rays share the pinhole and go through the BVH
+                        // together.
+                        let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
+                        tally.add(if self.packets && same {
+                            self.sample_run(pixels)
+                        } else {
+                            self.sample_alone(pixels)
+                        });
+                    }
+                }
+                let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
+                progress(RenderProgress { done: d, total });
+                Band { tally, residuals, complete: true }
+            })
+            .collect()
+    }
+
     fn new(
         integrator: &'a Integrator<'a, S, C>,
         camera: &'a CameraMotion,
@@ -327,7 +342,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// by a still camera: each sample's camera rays are traced as one packet, then each
     /// pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same values, bit
     /// for bit, as pixel by pixel.
-    fn sample_run(&self, run: PixelRun) -> Tally {
+    fn sample_run<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let n = sums.len();
         let row = y * self.integrator.settings.width;
@@ -347,9 +362,9 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
                 let c = finite_or_black(c, &mut total.dropped);
                 if k == 0 {
-                    add_first_sample(&mut sums[i], c);
+                    sums[i].add_first(c);
                 } else {
-                    add_sample(&mut sums[i], c, row + x0 + i as u32, residuals);
+                    sums[i].add(c, row + x0 + i as u32, residuals);
                 }
                 total.rays.add(ctx.counts);
             }
@@ -360,7 +375,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
 
     /// Add the pass's samples to `run` one pixel and one sample at a time (pixels at
     /// different sample counts, or a moving camera).
-    fn sample_alone(&self, run: PixelRun) -> Tally {
+    fn sample_alone<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let mut total = Tally::default();
         let row = y * self.integrator.settings.width;
@@ -368,7 +383,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             let last = sample_range(*count, self.pass);
             for k in *count..last {
                 let (c, r) = self.sample_pixel(x, y, k, &mut NoRecorder);
-                add_sample(sum, finite_or_black(c, &mut total.dropped), row + x, residuals);
+                sum.add(finite_or_black(c, &mut total.dropped), row + x, residuals);
                 total.rays.add(r);
             }
             *count = last;

@@ -33,34 +33,133 @@ pub struct Residual {
 /// the pixel's value is then taken from the exact sum of its `f64` sum and residuals
 /// ([`ExactSum`]). With one sample the sum is the sample: the value has the bits it always had.
 ///
+/// A new film keeps its sums as `f32` until a pixel gets a second sample ([`Sums`]): a
+/// one-sample render, the default, then fills 16 bytes a pixel instead of 28.
+///
 /// No NaN or infinity enters a film: a sample that is not finite (a degenerate input can
 /// make one, and it would blank its pixel, or with a filter its neighbours, for good) adds
 /// black instead, and is counted in [`Film::dropped`] so that it is reported, not hidden.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Film {
     width: u32,
     height: u32,
-    sum: Vec<PixelSum>,
+    sums: Sums,
     count: Vec<u32>,
     /// Sorted by pixel (stably: a pixel's residuals in the order they arose).
     residuals: Vec<Residual>,
     dropped: u64,
 }
 
-/// The mutable sums and counts of a film, for the renderer to add samples to (with
-/// [`add_sample`]).
-pub struct FilmSlices<'a> {
+/// A film's running sums.
+#[derive(Clone, Debug)]
+enum Sums {
+    /// Before any pixel has two samples: each sum is zero or the pixel's one sample, which an
+    /// `f32` holds exactly (12 bytes a pixel, where `f64` sums take 24: the allocation, the
+    /// page faults and the writes of a one-sample render's film are 16 bytes a pixel with the
+    /// count, not 28). `filled`: some pixel may hold a sample (the next sample to any pixel
+    /// needs `f64` sums, and [`Film::widen`] makes them).
+    Single { sums: Vec<[f32; 3]>, filled: bool },
+    /// `f64` running sums, checked for exactness as samples are added.
+    Exact(Vec<PixelSum>),
+}
+
+impl Sums {
+    /// Zero sums for `n` pixels.
+    fn zero(n: usize) -> Sums {
+        Sums::Single { sums: vec![[0.0; 3]; n], filled: false }
+    }
+
+    /// Pixel `i`'s running sum.
+    #[inline]
+    fn get(&self, i: usize) -> PixelSum {
+        match self {
+            Sums::Single { sums, .. } => sums[i].map(f64::from),
+            Sums::Exact(sums) => sums[i],
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Sums::Single { sums, .. } => sums.len(),
+            Sums::Exact(sums) => sums.len(),
+        }
+    }
+}
+
+/// The mutable sums and counts of a film, for the renderer to add samples to (with a
+/// [`PixelAccumulator`]: [`add_sample`] for `f64` sums).
+pub(crate) struct FilmSlices<'a, S> {
     /// Per-pixel sums, rows from the top.
-    pub sums: &'a mut [PixelSum],
+    pub sums: &'a mut [S],
     /// Per-pixel sample counts.
     pub counts: &'a mut [u32],
+}
+
+/// How the renderer adds a sample to a pixel's sum in a film's storage: the `f64` sums add it
+/// exactly ([`add_sample`], or [`add_first_sample`] for a pixel's first), the `f32` sums of a
+/// film's first pass store it (see [`Sums`]).
+pub(crate) trait PixelAccumulator: Send {
+    /// Add sample `c` (finite: see [`finite_or_black`]), the pixel's first (its sample 0,
+    /// whose sum is zero).
+    fn add_first(&mut self, c: Color);
+
+    /// Add sample `c` (finite), a later one, to the sum of pixel `pixel`, pushing what the
+    /// addition loses to `residuals`.
+    fn add(&mut self, c: Color, pixel: u32, residuals: &mut Vec<Residual>);
+}
+
+impl PixelAccumulator for PixelSum {
+    #[inline(always)]
+    fn add_first(&mut self, c: Color) {
+        add_first_sample(self, c);
+    }
+
+    #[inline(always)]
+    fn add(&mut self, c: Color, pixel: u32, residuals: &mut Vec<Residual>) {
+        add_sample(self, c, pixel, residuals);
+    }
+}
+
+/// The one sample a film's first pass adds to a pixel (a pass that would add two runs on
+/// `f64` sums), stored as [`add_first_sample`] stores it in an `f64`: whether it is the
+/// pixel's sample 0 or a later one (a part's first, `crate::partial`), its sum is zero.
+impl PixelAccumulator for [f32; 3] {
+    #[inline(always)]
+    fn add_first(&mut self, c: Color) {
+        debug_assert!(self.iter().all(|s| s.to_bits() == 0), "an f32 sum takes one sample");
+        // `0.0 + x`, not `x`: a sample of -0.0 leaves a sum of +0.0, as an addition does.
+        *self = [0.0 + c.x, 0.0 + c.y, 0.0 + c.z];
+    }
+
+    #[inline(always)]
+    fn add(&mut self, c: Color, _: u32, _: &mut Vec<Residual>) {
+        self.add_first(c);
+    }
+}
+
+/// A film's sums and counts lent to a render pass, in the storage the pass adds to.
+pub(crate) enum PassSlices<'a> {
+    /// The first pass of a fresh film, adding at most one sample to each pixel.
+    Single(FilmSlices<'a, [f32; 3]>),
+    /// Any other pass.
+    Exact(FilmSlices<'a, PixelSum>),
+}
+
+/// Films are equal when their sizes, sums, counts, residuals and dropped samples are, however
+/// their sums are stored.
+impl PartialEq for Film {
+    fn eq(&self, other: &Film) -> bool {
+        (self.width, self.height, &self.count, &self.residuals, self.dropped)
+            == (other.width, other.height, &other.count, &other.residuals, other.dropped)
+            && self.sums().eq(other.sums())
+    }
 }
 
 impl Film {
     /// A film with no samples.
     pub fn new(width: u32, height: u32) -> Film {
         let n = width as usize * height as usize;
-        Film { width, height, sum: vec![[0.0; 3]; n], count: vec![0; n], residuals: Vec::new(), dropped: 0 }
+        Film { width, height, sums: Sums::zero(n), count: vec![0; n], residuals: Vec::new(), dropped: 0 }
     }
 
     /// A film from its parts (as a partial film file holds them), or what is wrong with them:
@@ -83,7 +182,7 @@ impl Film {
             return Err("a pixel with no samples has a sum");
         }
         residuals.sort_by_key(|r| r.pixel);
-        Ok(Film { width, height, sum, count, residuals, dropped })
+        Ok(Film { width, height, sums: Sums::Exact(sum), count, residuals, dropped })
     }
 
     /// Width in pixels.
@@ -120,7 +219,7 @@ impl Film {
     #[inline]
     fn exact(&self, i: usize) -> PixelSum {
         // Almost every film has no residuals at all: one test, not a search, per pixel.
-        if self.residuals.is_empty() { self.sum[i] } else { self.exact_with_residuals(i) }
+        if self.residuals.is_empty() { self.sums.get(i) } else { self.exact_with_residuals(i) }
     }
 
     /// [`Film::exact`] where some pixel has residuals: this one's, if any, added exactly.
@@ -129,12 +228,13 @@ impl Film {
     fn exact_with_residuals(&self, i: usize) -> PixelSum {
         let first = self.residuals.partition_point(|r| (r.pixel as usize) < i);
         let mine = self.residuals[first..].iter().take_while(|r| r.pixel as usize == i);
+        let sum = self.sums.get(i);
         if first == self.residuals.len() || self.residuals[first].pixel as usize != i {
-            return self.sum[i];
+            return sum;
         }
         let mut exact: [ExactSum; 3] = Default::default();
         for (c, e) in exact.iter_mut().enumerate() {
-            e.add(self.sum[i][c]);
+            e.add(sum[c]);
             for r in mine.clone() {
                 e.add(r.value[c]);
             }
@@ -161,8 +261,8 @@ impl Film {
     }
 
     /// Per-pixel running sums (without their residuals), rows from the top.
-    pub fn sums(&self) -> &[PixelSum] {
-        &self.sum
+    pub fn sums(&self) -> impl ExactSizeIterator<Item = PixelSum> + '_ {
+        (0..self.sums.len()).map(|i| self.sums.get(i))
     }
 
     /// Per-pixel sample counts, rows from the top.
@@ -175,18 +275,49 @@ impl Film {
         &self.residuals
     }
 
-    /// Mutable sums and counts, for the renderer; what its additions lose comes back through
-    /// [`Film::add_residuals`].
-    pub fn slices_mut(&mut self) -> FilmSlices<'_> {
-        FilmSlices { sums: &mut self.sum, counts: &mut self.count }
+    /// Per-pixel sample counts, to set where a pass is to start (a part's first sample).
+    pub(crate) fn counts_mut(&mut self) -> &mut [u32] {
+        &mut self.count
+    }
+
+    /// Mutable sums and counts for a render pass that adds at most `most` samples to any
+    /// pixel, in `f32` while the film is fresh and `most` is 1 (see [`Sums`]), else in `f64`;
+    /// what its additions lose comes back through [`Film::add_residuals`].
+    pub(crate) fn pass_slices(&mut self, most: u32) -> PassSlices<'_> {
+        if most > 1 || matches!(self.sums, Sums::Single { filled: true, .. }) {
+            self.widen();
+        }
+        match &mut self.sums {
+            Sums::Single { sums, filled } => {
+                *filled = true;
+                PassSlices::Single(FilmSlices { sums, counts: &mut self.count })
+            }
+            Sums::Exact(sums) => PassSlices::Exact(FilmSlices { sums, counts: &mut self.count }),
+        }
+    }
+
+    /// The sums in `f64` from now on (the same values: an `f32` converts exactly; a film with
+    /// no sample yet gets zeroed memory, as `Film::new` had it before, not a conversion).
+    fn widen(&mut self) -> &mut [PixelSum] {
+        match &self.sums {
+            Sums::Single { filled: false, sums } => self.sums = Sums::Exact(vec![[0.0; 3]; sums.len()]),
+            Sums::Single { filled: true, sums } => {
+                self.sums = Sums::Exact(sums.iter().map(|s| s.map(f64::from)).collect());
+            }
+            Sums::Exact(_) => {}
+        }
+        match &mut self.sums {
+            Sums::Exact(sums) => sums,
+            Sums::Single { .. } => unreachable!("widened above"),
+        }
     }
 
     /// Add one sample `c` (finite: see [`finite_or_black`]) to pixel `(x, y)`, exactly, as the
-    /// renderer adds its samples through [`Film::slices_mut`] and [`add_sample`].
+    /// renderer adds its samples with [`add_sample`].
     pub fn add(&mut self, x: u32, y: u32, c: Color) {
         let i = self.index(x, y);
         let mut lost = Vec::new();
-        add_sample(&mut self.sum[i], c, i as u32, &mut lost);
+        add_sample(&mut self.widen()[i], c, i as u32, &mut lost);
         self.count[i] += 1;
         self.add_residuals(lost);
     }
@@ -208,8 +339,8 @@ impl Film {
             return false;
         }
         let mut lost = other.residuals.clone();
-        for (i, (sum, o)) in self.sum.iter_mut().zip(&other.sum).enumerate() {
-            add_exact(sum, *o, i as u32, &mut lost);
+        for (i, (sum, o)) in self.widen().iter_mut().zip(other.sums()).enumerate() {
+            add_exact(sum, o, i as u32, &mut lost);
         }
         for (n, o) in self.count.iter_mut().zip(&other.count) {
             *n += o;
@@ -232,7 +363,7 @@ impl Film {
 
     /// Forget every sample.
     pub fn clear(&mut self) {
-        self.sum.fill([0.0; 3]);
+        self.sums = Sums::zero(self.count.len());
         self.count.fill(0);
         self.residuals.clear();
         self.dropped = 0;
@@ -240,12 +371,12 @@ impl Film {
 
     /// Every pixel's value, rows from the top.
     pub fn pixels(&self) -> Vec<Color> {
-        (0..self.sum.len()).map(|i| self.value(i)).collect()
+        (0..self.count.len()).map(|i| self.value(i)).collect()
     }
 
     /// Mean of all pixels.
     pub fn mean(&self) -> Color {
-        self.pixels().iter().copied().sum::<Color>() / (self.sum.len().max(1)) as f32
+        self.pixels().iter().copied().sum::<Color>() / (self.count.len().max(1)) as f32
     }
 
     /// As a 3-channel float image.
@@ -394,6 +525,39 @@ mod tests {
         }
     }
 
+    /// A fresh film's one-sample pass stores `f32` sums; the next pass, or a pass of more
+    /// than one sample, works on `f64` sums holding the same values; films compare by value
+    /// whatever their storage.
+    #[test]
+    fn the_first_one_sample_pass_adds_to_f32_sums() {
+        let samples = [Color::new(-0.0, 0.1, 3.0e38), Color::new(1.0e-45, 0.5, 7.25)];
+        let mut film = Film::new(2, 1);
+        match film.pass_slices(1) {
+            PassSlices::Single(s) => {
+                for (i, c) in samples.iter().enumerate() {
+                    s.sums[i].add_first(*c);
+                    s.counts[i] = 1;
+                }
+            }
+            PassSlices::Exact(_) => panic!("a fresh film's one-sample pass adds to f32 sums"),
+        }
+        let mut exact = Film::new(2, 1);
+        for (i, c) in samples.iter().enumerate() {
+            exact.add(i as u32, 0, *c);
+        }
+        assert!(matches!(exact.sums, Sums::Exact(_)));
+        assert_eq!(film, exact);
+        for i in 0..2 {
+            assert_eq!(film.get(i, 0).to_array().map(f32::to_bits), exact.get(i, 0).to_array().map(f32::to_bits));
+            assert_eq!(film.sum(i, 0).map(f64::to_bits), exact.sum(i, 0).map(f64::to_bits));
+        }
+        assert_eq!(film.sum(0, 0)[0].to_bits(), 0, "-0.0 is added as +0.0");
+        // A second pass widens, keeping every value.
+        assert!(matches!(film.pass_slices(1), PassSlices::Exact(_)));
+        assert_eq!(film, exact);
+        assert!(matches!(Film::new(1, 1).pass_slices(2), PassSlices::Exact(_)));
+    }
+
     #[test]
     fn a_film_whose_empty_pixel_has_a_sum_is_refused() {
         assert!(Film::from_parts(2, 1, vec![[0.0; 3], [0.5, 0.0, 0.0]], vec![0, 1], Vec::new(), 0).is_ok());
@@ -408,13 +572,9 @@ mod tests {
         let samples = [1.0e8f32, 3.0e-9, 7.5, 1.0e-30, 2.5e-8, 1.0e8, 0.125];
         let fill = |order: &[usize]| {
             let mut film = Film::new(1, 1);
-            let mut lost = Vec::new();
-            let FilmSlices { sums, counts } = film.slices_mut();
             for &k in order {
-                add_sample(&mut sums[0], Color::splat(samples[k]), 0, &mut lost);
-                counts[0] += 1;
+                film.add(0, 0, Color::splat(samples[k]));
             }
-            film.add_residuals(lost);
             film
         };
         let all = fill(&[0, 1, 2, 3, 4, 5, 6]);

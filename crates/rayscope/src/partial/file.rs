@@ -29,7 +29,7 @@ pub fn write_partial(partial: &PartialFilm, path: &Path) -> RayResult<()> {
     let mut channels = Vec::new();
     for (c, name) in CHANNELS.iter().enumerate() {
         channels.push(AnyChannel::new(*name, FlatSamples::F32(preview.iter().map(|p| p[c]).collect())));
-        let bits = |shift: u32| film.sums().iter().map(|s| (s[c].to_bits() >> shift) as u32).collect();
+        let bits = |shift: u32| film.sums().map(|s| (s[c].to_bits() >> shift) as u32).collect();
         channels.push(AnyChannel::new(format!("sum.{name}.hi").as_str(), FlatSamples::U32(bits(32))));
         channels.push(AnyChannel::new(format!("sum.{name}.lo").as_str(), FlatSamples::U32(bits(0))));
     }

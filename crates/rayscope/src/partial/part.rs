@@ -5,7 +5,7 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use crate::film::{Film, FilmSlices};
+use crate::film::Film;
 use crate::render::{RenderOutput, RenderProgress, SamplePass, render_pass};
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
@@ -108,17 +108,13 @@ pub fn render_part(
     // Each pixel starts at the first sample of the part (so it draws the same random numbers
     // as in one render), and pixels outside the part start full, so the pass skips them.
     let inside = |i: usize| part.has_pixel(i as u32 % w, i as u32 / w, w);
-    {
-        let FilmSlices { counts, .. } = film.slices_mut();
-        for (i, n) in counts.iter_mut().enumerate() {
-            *n = if inside(i) { lo } else { settings.spp };
-        }
+    for (i, n) in film.counts_mut().iter_mut().enumerate() {
+        *n = if inside(i) { lo } else { settings.spp };
     }
     let pass = SamplePass { samples: hi - lo, limit: hi, planned: settings.spp, seed: settings.seed };
     let (rays, complete) = render_pass(scene, settings, &scene.camera_motion(), &mut film, pass, cancel, progress);
     // The counts say how many samples the part holds.
-    let FilmSlices { counts, .. } = film.slices_mut();
-    for (i, n) in counts.iter_mut().enumerate() {
+    for (i, n) in film.counts_mut().iter_mut().enumerate() {
         *n = if inside(i) { *n - lo } else { 0 };
     }
     RenderOutput { film, rays, elapsed: start.elapsed(), complete }
