@@ -196,9 +196,10 @@ pub fn run(assets: Option<&Path>, repetitions: usize, warmup: usize, threads: us
         let mut build = Duration::MAX;
         let mut best = Duration::MAX;
         let mut rays = 0;
+        let prims = scene.prim_refs();
         for k in 0..warmup + repetitions.max(1) {
             let start = Instant::now();
-            let g = Geometry::build(&scene.meshes, &scene.spheres, &scene.prims);
+            let g = Geometry::build(&scene.meshes, &scene.spheres, &prims);
             let b = start.elapsed();
             std::hint::black_box(&g);
             let out = render(scene, &settings, &|_| {});

@@ -48,13 +48,14 @@ pub fn run(assets: Option<&Path>, repetitions: usize, warmup: usize) -> Result<V
                 continue;
             }
         };
+        let prims = scene.prim_refs();
         for rule in SplitRule::ALL {
             eprintln!("bench split rules: {name}, {}", rule.name());
             let params = BuildParams { split_rule: rule, ..BuildParams::default() };
             let (mut build, mut best) = (Duration::MAX, Duration::MAX);
             for k in 0..warmup + repetitions.max(1) {
                 let start = Instant::now();
-                let g = Geometry::build_with(&scene.meshes, &scene.spheres, &scene.prims, &params);
+                let g = Geometry::build_with(&scene.meshes, &scene.spheres, &prims, &params);
                 let b = start.elapsed();
                 let original = std::mem::replace(&mut scene.geometry, g);
                 let out = render(&scene, &settings, &|_| {});

@@ -27,7 +27,7 @@ fn dragon() -> Option<Scene> {
 
 fn bench(c: &mut Criterion) {
     let Some(scene) = dragon() else { return };
-    let bounds: Vec<Aabb> = scene.geometry.shapes.iter().map(|s| s.bounds()).collect();
+    let bounds: Vec<Aabb> = scene.geometry.shapes().map(|s| s.bounds()).collect();
     let mut g = c.benchmark_group("dragon");
     g.sample_size(20);
     g.bench_function("build", |b| b.iter(|| Bvh::build(black_box(&bounds), &BuildParams::default())));

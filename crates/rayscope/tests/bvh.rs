@@ -292,9 +292,9 @@ fn axis_parallel_rays_through_box_faces() {
 }
 
 fn scene_shapes(scene: &Scene) -> Vec<Shape> {
-    let mut shapes = vec![None; scene.prims.len()];
+    let mut shapes = vec![None; scene.prim_count()];
     for (slot, &p) in scene.geometry.bvh.prim_indices.iter().enumerate() {
-        shapes[p as usize] = Some(scene.geometry.shapes[slot]);
+        shapes[p as usize] = Some(scene.geometry.shape(slot as u32));
     }
     shapes.into_iter().map(|s| s.unwrap()).collect()
 }

@@ -237,9 +237,9 @@ proptest! {
         };
         let scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
         let g = &scene.geometry;
-        for (slot, shape) in g.shapes.iter().enumerate() {
-            let bound = g.shape_bounds(shape);
-            let prim = scene.prims[g.prim_id(slot as u32) as usize];
+        for (slot, shape) in g.shapes().enumerate() {
+            let bound = g.shape_bounds(&shape);
+            let prim = scene.prim(g.prim_id(slot as u32));
             for t in (0..=512).map(|i| i as f32 / 512.0) {
                 let offset = path.at(t);
                 let at_t = match prim {
@@ -306,7 +306,7 @@ proptest! {
         let mut scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
         scene.set_shutter(s);
         let g = &scene.geometry;
-        let bound = g.shape_bounds(&g.shapes[0]);
+        let bound = g.shape_bounds(&g.shape(0));
         for i in 0..=64 {
             let u = i as f32 / 64.0 * (1.0 - f32::EPSILON);
             let c = Vec3A::new(0.3, 0.0, 0.0) + long.at(s.time(u));
@@ -330,14 +330,14 @@ fn a_late_frames_tree_is_tight_and_a_still_keeps_its_tree() {
     ];
     let desc = sphere_scene(Some(MotionDesc::Keys { keys, interpolation: Interpolation::CatmullRom }));
     let mut scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
-    let still_box = scene.geometry.shape_bounds(&scene.geometry.shapes[0]);
+    let still_box = scene.geometry.shape_bounds(&scene.geometry.shape(0));
     let frame = AnimationSettings::default().shutter_of(100);
     scene.set_shutter(frame);
-    let root = scene.geometry.shape_bounds(&scene.geometry.shapes[0]);
+    let root = scene.geometry.shape_bounds(&scene.geometry.shape(0));
     let width = root.max.x - root.min.x;
     assert!(width < 0.4 + 0.1, "a frame's box is {width} wide");
     scene.set_shutter(Shutter::STILL);
-    assert_eq!(scene.geometry.shape_bounds(&scene.geometry.shapes[0]), still_box, "back to the still's box");
+    assert_eq!(scene.geometry.shape_bounds(&scene.geometry.shape(0)), still_box, "back to the still's box");
     assert_ne!(still_box, root);
     assert_eq!(scene.shutter(), Shutter::STILL);
 }

@@ -141,13 +141,20 @@ impl Bvh {
     /// Build over primitives with these bounding boxes. Primitives whose box is not finite
     /// (NaN or infinite coordinates) are left out.
     pub fn build(bounds: &[Aabb], params: &BuildParams) -> Bvh {
+        Bvh::build_from(bounds.len(), |i| bounds[i], params)
+    }
+
+    /// [`Bvh::build`] over `count` primitives whose boxes `bounds` gives by index: the same
+    /// tree, without an array of the boxes (32 bytes a primitive, alive beside the builder's
+    /// own 48 at its peak).
+    pub fn build_from(count: usize, bounds: impl Fn(usize) -> Aabb + Sync, params: &BuildParams) -> Bvh {
         use rayon::prelude::*;
-        let prim = |(i, b): (usize, &Aabb)| BuildPrim::new(*b, i as u32);
+        let prim = |i: usize| BuildPrim::new(bounds(i), i as u32);
         // Made in place (an exact-size collect), then the rare unusable boxes dropped.
-        let mut prims: Vec<BuildPrim> = if bounds.len() > PARALLEL_PASS {
-            bounds.par_iter().enumerate().map(prim).collect()
+        let mut prims: Vec<BuildPrim> = if count > PARALLEL_PASS {
+            (0..count).into_par_iter().map(prim).collect()
         } else {
-            bounds.iter().enumerate().map(prim).collect()
+            (0..count).map(prim).collect()
         };
         prims.retain(|p| p.bounds.is_finite() && !p.bounds.is_empty());
         if prims.is_empty() {

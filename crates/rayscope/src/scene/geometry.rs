@@ -68,6 +68,13 @@ impl Shape {
 }
 
 /// The BVH and the shapes it indexes, stored in BVH order so a leaf's shapes are contiguous.
+///
+/// The shapes are stored compactly ([`Geometry::shape`] gives slot `i`'s): a static
+/// triangle as the indices of its three corners into a copy of the meshes' positions, 12 bytes
+/// (plus its share of the positions) where a [`Shape`] takes 64. Rendering reads them rarely:
+/// the wide tree's leaves hold their own copies of the triangles ([`crate::bvh::Tri4`]), so a
+/// slot's shape is read for the leaves that are not packed (spheres, moving shapes), for a
+/// hit's geometric normal, and by the binary tree's traversal (the debugger's).
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
     /// The binary hierarchy: what the debugger's level view draws, and what `wide` is
@@ -75,8 +82,14 @@ pub struct Geometry {
     pub bvh: Bvh,
     /// The wide hierarchy rendering traverses (8 or 16 children a node, for the CPU).
     pub wide: WideTree,
-    /// Shapes in BVH slot order.
-    pub shapes: Vec<Shape>,
+    /// Per slot, its shape: a static triangle's corners, as indices into `vertices`; or
+    /// `[OTHER, i, 0]`: `others[i]`.
+    corners: Vec<[u32; 3]>,
+    /// The corners of static triangles: every mesh's positions at shutter open, the meshes one
+    /// after another.
+    vertices: Vec<Vec3A>,
+    /// The shapes that are not a static triangle's corners (see `corners`).
+    others: Vec<Shape>,
     /// Moving shapes, referenced by [`Shape::Moving`].
     pub moving: Vec<MovingShape>,
     /// The paths of moving shapes, referenced by [`ShapeMotion::Path`] (one per moving mesh
@@ -100,17 +113,44 @@ pub struct SlotInfo {
     pub material: u32,
 }
 
+/// Marks a slot whose shape is in [`Geometry::others`] (in `corners`).
+const OTHER: u32 = u32::MAX;
+
 impl Primitives for Geometry {
+    /// Inlined into every traversal's range leaves: the shapes stored whole (spheres, moving
+    /// shapes) by reference, as before the compact storage; a static triangle's, which a range
+    /// leaf holds only where the collapse could not pack it, out of line (made from its corners
+    /// inline, it cost the dragon's packet and shadow traversals 0.7-2.1% more instructions,
+    /// though they never reach it).
     #[inline(always)]
     fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
-        self.intersect_shape(&self.shapes[index as usize], ray, t_min, t_max)
+        match self.corners[index as usize] {
+            [OTHER, i, _] => self.intersect_shape(&self.others[i as usize], ray, t_min, t_max),
+            corners => self.intersect_corners(corners, ray, t_min, t_max),
+        }
+    }
+
+    #[inline(always)]
+    fn triangle(&self, index: u32) -> Option<Triangle> {
+        self.triangle_of(self.corners[index as usize])
+    }
+}
+
+/// The slots' shapes while `Geometry::corners` is not yet made: slot `i`'s corners are
+/// `corners(i)`. The collapse reads the shapes through this, so that the plan and the wide
+/// tree it makes are alive before the slots' arrays, not with them.
+struct Unsorted<'a, F> {
+    geometry: &'a Geometry,
+    corners: F,
+}
+
+impl<F: Fn(u32) -> [u32; 3]> Primitives for Unsorted<'_, F> {
+    fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
+        self.geometry.intersect_shape(&self.geometry.shape_of((self.corners)(index)), ray, t_min, t_max)
     }
 
     fn triangle(&self, index: u32) -> Option<Triangle> {
-        match self.shapes[index as usize] {
-            Shape::Triangle(t) => Some(t),
-            _ => None,
-        }
+        self.geometry.triangle_of((self.corners)(index))
     }
 }
 
@@ -135,38 +175,125 @@ impl Geometry {
         params: &BuildParams,
         shutter: Shutter,
     ) -> Geometry {
+        Geometry::build_by(meshes, spheres, prims.len(), |i| prims[i as usize], params, shutter)
+    }
+
+    /// [`Geometry::build_for`] over `count` primitives, global id `i` being `prim(i)`: the
+    /// scene gives them without an array ([`super::PrimIds`]).
+    pub(super) fn build_by(
+        meshes: &[Mesh],
+        spheres: &[SceneSphere],
+        count: usize,
+        prim: impl Fn(u32) -> PrimRef + Sync,
+        params: &BuildParams,
+        shutter: Shutter,
+    ) -> Geometry {
         let mut geometry = Geometry { shutter, ..Geometry::default() };
         let slot_info = |i: u32| {
-            let prim = prims[i as usize];
+            let prim = prim(i);
             SlotInfo { prim, material: prim.material(meshes, spheres) }
         };
-        if anything_moves(meshes, spheres) {
+        let vertex_count: usize = meshes.iter().map(|m| m.positions.len()).sum();
+        // Corner indices must stay below `OTHER`; beyond (never, in practice: 64 GB of
+        // positions), every shape is stored whole.
+        if anything_moves(meshes, spheres) || vertex_count >= OTHER as usize {
             // Moving shapes are numbered in order: make every shape first, then reorder.
             let linear = shutter.is_still();
+            let prims = (0..count as u32).map(&prim);
             let shapes = all_shapes(meshes, spheres, prims, linear, &mut geometry.moving, &mut geometry.paths);
             let g = &geometry;
-            let bounds = map(&shapes, |s| g.shape_bounds(s));
-            geometry.bvh = Bvh::build(&bounds, params);
-            geometry.shapes = map(&geometry.bvh.prim_indices, |&i| shapes[i as usize]);
+            let bvh = Bvh::build_from(shapes.len(), |i| g.shape_bounds(&shapes[i]), params);
+            geometry.bvh = bvh;
+            geometry.others = map(&geometry.bvh.prim_indices, |&i| shapes[i as usize]);
+            geometry.corners = (0..geometry.others.len() as u32).map(|i| [OTHER, i, 0]).collect();
             geometry.slots = map(&geometry.bvh.prim_indices, |&i| slot_info(i));
-        } else {
-            // Nothing moves: the bounds come straight from the meshes, and each shape is made
-            // once, in slot order, beside its slot's information (a shapes array in global
-            // order and a reordering pass were a third of the build on two cores).
-            let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
-            let bounds = map(prims, |p| shape(p).bounds());
-            geometry.bvh = Bvh::build(&bounds, params);
-            let order = &geometry.bvh.prim_indices;
-            let both = |&i: &u32| (shape(&prims[i as usize]), slot_info(i));
-            (geometry.shapes, geometry.slots) = if order.len() > PARALLEL_PASS {
-                use rayon::prelude::*;
-                order.par_iter().map(both).unzip()
-            } else {
-                order.iter().map(both).unzip()
-            };
+            geometry.wide = WideTree::from_binary(&geometry.bvh, &geometry);
+            return geometry;
         }
-        geometry.wide = WideTree::from_binary(&geometry.bvh, &geometry);
+        // Nothing moves: the bounds come straight from the meshes (no array of them); the
+        // wide tree is collapsed before the slots' arrays are made, each slot's corners then
+        // found once, in slot order, beside its slot's information (a shapes array in global
+        // order and a reordering pass were a third of the build on two cores).
+        let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
+        geometry.bvh = Bvh::build_from(count, |i| shape(&prim(i as u32)).bounds(), params);
+        let mut first = Vec::with_capacity(meshes.len());
+        geometry.vertices = Vec::with_capacity(vertex_count);
+        for m in meshes {
+            first.push(geometry.vertices.len() as u32);
+            // Moved as `still_shape` moves them, so that the corners are its corners.
+            let offset = m.motion.as_ref().map_or(Vec3A::ZERO, MotionPath::start);
+            geometry.vertices.extend(m.positions.iter().map(|&p| p + offset));
+        }
+        // Spheres are `others` in their own order.
+        geometry.others = (0..spheres.len() as u32).map(|s| shape(&PrimRef::Sphere(s))).collect();
+        let corners = |i: u32| match prim(i) {
+            PrimRef::Triangle { mesh, face } => {
+                meshes[mesh as usize].triangles[face as usize].map(|c| first[mesh as usize] + c)
+            }
+            PrimRef::Sphere(s) => [OTHER, s, 0],
+        };
+        let order = &geometry.bvh.prim_indices;
+        let unsorted = Unsorted { geometry: &geometry, corners: |slot: u32| corners(order[slot as usize]) };
+        let wide = WideTree::from_binary(&geometry.bvh, &unsorted);
+        geometry.wide = wide;
+        if count > PARALLEL_PASS {
+            // The plan's memory, before the slots' arrays are made.
+            crate::io::memory::release_free_memory();
+        }
+        let order = &geometry.bvh.prim_indices;
+        let both = |&i: &u32| (corners(i), slot_info(i));
+        (geometry.corners, geometry.slots) = if order.len() > PARALLEL_PASS {
+            use rayon::prelude::*;
+            order.par_iter().map(both).unzip()
+        } else {
+            order.iter().map(both).unzip()
+        };
         geometry
+    }
+
+    /// The shape in slot `slot`.
+    #[inline(always)]
+    pub fn shape(&self, slot: u32) -> Shape {
+        self.shape_of(self.corners[slot as usize])
+    }
+
+    /// The shapes, in slot order.
+    pub fn shapes(&self) -> impl ExactSizeIterator<Item = Shape> + '_ {
+        (0..self.corners.len() as u32).map(|slot| self.shape(slot))
+    }
+
+    /// The shape a slot's `corners` name.
+    #[inline(always)]
+    fn shape_of(&self, corners: [u32; 3]) -> Shape {
+        match corners {
+            [OTHER, i, _] => self.others[i as usize],
+            [a, b, c] => Shape::Triangle(self.corner_triangle([a, b, c])),
+        }
+    }
+
+    /// The triangle a slot's `corners` name, if it is one (the others' triangles included).
+    #[inline(always)]
+    fn triangle_of(&self, corners: [u32; 3]) -> Option<Triangle> {
+        match corners {
+            [OTHER, i, _] => match self.others[i as usize] {
+                Shape::Triangle(t) => Some(t),
+                _ => None,
+            },
+            [a, b, c] => Some(self.corner_triangle([a, b, c])),
+        }
+    }
+
+    /// Intersect the static triangle of these corners.
+    #[inline(never)]
+    fn intersect_corners(&self, corners: [u32; 3], ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
+        self.corner_triangle(corners).intersect(ray, t_min, t_max)
+    }
+
+    /// The triangle of these corners (indices into `vertices`).
+    #[inline(always)]
+    fn corner_triangle(&self, [a, b, c]: [u32; 3]) -> Triangle {
+        let v = &self.vertices;
+        Triangle::new(v[a as usize], v[b as usize], v[c as usize])
     }
 
     /// Intersect `shape` (moving ones at the ray's time).
@@ -215,8 +342,8 @@ impl Geometry {
     pub fn build_bounds(&self) -> Vec<Aabb> {
         let order = &self.bvh.prim_indices;
         let mut bounds = vec![Aabb::EMPTY; order.iter().map(|&i| i as usize + 1).max().unwrap_or(0)];
-        for (shape, &i) in self.shapes.iter().zip(order) {
-            bounds[i as usize] = self.shape_bounds(shape);
+        for (shape, &i) in self.shapes().zip(order) {
+            bounds[i as usize] = self.shape_bounds(&shape);
         }
         bounds
     }
@@ -340,7 +467,7 @@ fn still_shape(meshes: &[Mesh], spheres: &[SceneSphere], p: &PrimRef) -> Shape {
 fn all_shapes(
     meshes: &[Mesh],
     spheres: &[SceneSphere],
-    prims: &[PrimRef],
+    prims: impl Iterator<Item = PrimRef>,
     linear: bool,
     moving: &mut Vec<MovingShape>,
     paths: &mut Vec<MotionPath>,
@@ -349,8 +476,8 @@ fn all_shapes(
     // one), by owner: mesh `i` is `i`, sphere `j` is `meshes.len() + j`.
     let mut path_index = std::collections::HashMap::new();
     prims
-        .iter()
         .map(|p| {
+            let p = &p;
             let owner = match *p {
                 PrimRef::Triangle { mesh, .. } => mesh as usize,
                 PrimRef::Sphere(s) => meshes.len() + s as usize,

@@ -8,6 +8,7 @@ pub mod builtin;
 mod camera_lens;
 pub mod desc;
 mod geometry;
+mod prim_ids;
 mod texture_lod;
 mod visibility;
 
@@ -18,6 +19,7 @@ pub use desc::{LoadContext, MeshDesc, SceneDesc, SphereDesc, TransformDesc};
 // The mesh file formats scenes read, by extension.
 pub use crate::io::mesh_file::MESH_EXTENSIONS;
 pub use geometry::{Geometry, Shape, SlotInfo};
+pub use prim_ids::PrimIds;
 pub use texture_lod::TextureLod;
 pub use visibility::LightVisibility;
 
@@ -30,7 +32,9 @@ pub use crate::material::{Material, MaterialDesc, Texture};
 pub use crate::ray::Ray;
 
 use crate::animation::{AnimationSettings, Shutter};
-use crate::bvh::{BuildParams, BvhStats, LoggedQuery, NoObserver, NodeLog, TraversalObserver, WideBox, WideRef};
+use crate::bvh::{
+    BuildParams, BvhStats, LoggedQuery, NoObserver, NodeLog, Primitives, TraversalObserver, WideBox, WideRef,
+};
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::environment::Environment;
 use crate::error::Result;
@@ -158,8 +162,8 @@ pub struct Scene {
     pub animation: Option<AnimationSettings>,
     /// The environment map rays that miss return (`None`: the background colour).
     pub environment: Option<Environment>,
-    /// Global primitive id to primitive.
-    pub prims: Vec<PrimRef>,
+    /// Global primitive id to primitive ([`Scene::prim`]).
+    prim_ids: PrimIds,
     /// Shapes and BVH.
     pub geometry: Geometry,
     /// How long the BVH build took.
@@ -211,13 +215,16 @@ impl Scene {
         lights: Vec<Light>,
         render: Option<RenderSettings>,
     ) -> Scene {
-        let mut prims = Vec::new();
-        for (m, mesh) in meshes.iter().enumerate() {
-            prims.extend((0..mesh.triangles.len()).map(|f| PrimRef::Triangle { mesh: m as u32, face: f as u32 }));
-        }
-        prims.extend((0..spheres.len()).map(|s| PrimRef::Sphere(s as u32)));
+        let prim_ids = PrimIds::new(&meshes, spheres.len());
         let start = Instant::now();
-        let geometry = Geometry::build(&meshes, &spheres, &prims);
+        let geometry = Geometry::build_by(
+            &meshes,
+            &spheres,
+            prim_ids.len(),
+            |i| prim_ids.get(i),
+            &BuildParams::default(),
+            Shutter::STILL,
+        );
         let build_time = start.elapsed();
         let has_transparency = materials.iter().any(|m| m.transparency < 1.0);
         Scene {
@@ -233,7 +240,7 @@ impl Scene {
             render,
             animation: None,
             environment: None,
-            prims,
+            prim_ids,
             geometry,
             build_time,
             has_transparency,
@@ -276,8 +283,7 @@ impl Scene {
             return false;
         }
         let start = Instant::now();
-        let params = BuildParams::default();
-        self.geometry = Geometry::build_for(&self.meshes, &self.spheres, &self.prims, &params, shutter);
+        self.geometry = self.rebuilt(shutter);
         self.build_time = start.elapsed();
         true
     }
@@ -302,8 +308,7 @@ impl Scene {
         }
         if changed {
             let start = Instant::now();
-            let params = BuildParams::default();
-            self.geometry = Geometry::build_for(&self.meshes, &self.spheres, &self.prims, &params, self.shutter());
+            self.geometry = self.rebuilt(self.shutter());
             self.build_time = start.elapsed();
         }
     }
@@ -313,6 +318,27 @@ impl Scene {
         self.meshes.iter().any(|m| m.motion.is_some())
             || self.spheres.iter().any(|s| s.motion.is_some())
             || self.camera_path.is_some()
+    }
+
+    /// The geometry over the scene's shapes for the times `shutter` exposes.
+    fn rebuilt(&self, shutter: Shutter) -> Geometry {
+        let (meshes, spheres, ids) = (&self.meshes, &self.spheres, &self.prim_ids);
+        Geometry::build_by(meshes, spheres, ids.len(), |i| ids.get(i), &BuildParams::default(), shutter)
+    }
+
+    /// The primitive of global id `id` (below [`Scene::prim_count`]).
+    pub fn prim(&self, id: u32) -> PrimRef {
+        self.prim_ids.get(id)
+    }
+
+    /// Number of primitives (triangles and spheres).
+    pub fn prim_count(&self) -> usize {
+        self.prim_ids.len()
+    }
+
+    /// Every primitive, by global id (what [`Geometry::build`] takes).
+    pub fn prim_refs(&self) -> Vec<PrimRef> {
+        (0..self.prim_count() as u32).map(|i| self.prim(i)).collect()
     }
 
     /// Number of triangles.
@@ -403,13 +429,13 @@ impl Scene {
 
     /// The material of primitive `prim` (a global id).
     pub fn material_of(&self, prim: u32) -> u32 {
-        self.prims[prim as usize].material(&self.meshes, &self.spheres)
+        self.prim(prim).material(&self.meshes, &self.spheres)
     }
 
     /// The world-space corners of triangle `prim` when the shutter opens, or `None` for a
     /// sphere.
     pub fn triangle_vertices(&self, prim: u32) -> Option<[Vec3A; 3]> {
-        match self.prims[prim as usize] {
+        match self.prim(prim) {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
                 let o = m.motion.as_ref().map_or(Vec3A::ZERO, MotionPath::start);
@@ -467,9 +493,9 @@ impl Scene {
             PrimRef::Triangle { mesh, face } => {
                 let m = &self.meshes[mesh as usize];
                 let corners = || m.triangles[face as usize].map(|i| i as usize);
-                let geo = match self.geometry.shapes[hit.slot as usize] {
+                let geo = match self.geometry.triangle(hit.slot) {
                     // The same edges as the mesh's, for a mesh with no motion offset.
-                    Shape::Triangle(t) if m.motion.is_none() => t.normal().normalize_or_zero(),
+                    Some(t) if m.motion.is_none() => t.normal().normalize_or_zero(),
                     _ => {
                         let [a, b, c] = corners();
                         (m.positions[b] - m.positions[a]).cross(m.positions[c] - m.positions[a]).normalize_or_zero()

@@ -146,3 +146,26 @@ pub fn icosphere(levels: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     }
     (v, f)
 }
+
+/// A torus around the y axis (major radius `big`, tube radius `small`), `n` by `m` quads of two
+/// triangles each, sharing their vertices as a mesh file's do.
+pub fn torus(big: f32, small: f32, n: u32, m: u32) -> (Vec<Vec3A>, Vec<[u32; 3]>) {
+    let mut vertices = Vec::new();
+    for i in 0..n {
+        let u = std::f32::consts::TAU * i as f32 / n as f32;
+        for j in 0..m {
+            let v = std::f32::consts::TAU * j as f32 / m as f32;
+            let r = big + small * v.cos();
+            vertices.push(Vec3A::new(r * u.cos(), small * v.sin(), r * u.sin()));
+        }
+    }
+    let at = |i: u32, j: u32| (i % n) * m + j % m;
+    let mut faces = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    (vertices, faces)
+}

@@ -107,20 +107,4 @@ impl ChildRef {
     pub fn to_bits(self) -> u32 {
         self.0
     }
-
-    /// This reference in a tree appended after `nodes` nodes, `blocks` blocks and `ranges`
-    /// ranges of another (see the collapse): its index moved past theirs. The caller checks
-    /// that a packed leaf's first block still fits in [`ChildRef::BLOCK_BITS`].
-    #[inline]
-    pub(super) fn moved(self, nodes: u32, blocks: u32, ranges: u32) -> ChildRef {
-        ChildRef(if self == ChildRef::EMPTY {
-            self.0
-        } else if self.is_packed() {
-            self.0 + blocks
-        } else if self.is_leaf() {
-            self.0 + ranges
-        } else {
-            self.0 + nodes
-        })
-    }
 }

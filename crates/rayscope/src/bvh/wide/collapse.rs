@@ -15,7 +15,7 @@ use super::layout::{LeafRange, Tri4, WideNode};
 use super::{ChildRef, Simd, WideBvh};
 use wide::f32x8;
 
-use crate::bvh::{Bvh, Primitives};
+use crate::bvh::{Bvh, MAX_DEPTH, Primitives};
 
 /// Binary trees with more nodes than this collapse on several threads.
 const PARALLEL_COLLAPSE: usize = 1 << 13;
@@ -42,12 +42,16 @@ struct Kid {
     leaf: bool,
 }
 
+/// The least cost of a binary node's subtree hung from a parent as at most `i` children, at
+/// index `i - 1`. Costs are surface areas times test counts, as in the SAH. Only the planning
+/// reads them, each once (its parent's decision), so they live on a stack while a subtree is
+/// planned, not in the plan: in it they were 70% of its bytes (the plan's 92 bytes a binary
+/// node at `W = 16` were the collapse's peak memory, about 46 bytes a triangle).
+type Costs<const W: usize> = [f32; W];
+
 /// The collapse's decisions for one binary node.
 #[derive(Clone, Copy, Debug)]
 struct Decision<const W: usize> {
-    /// The least cost of the node's subtree hung from a parent as at most `i` children, at
-    /// index `i - 1`. Costs are surface areas times test counts, as in the SAH.
-    cost: [f32; W],
     /// How that least cost is reached: at index 0 (one child), 1 if the subtree is a leaf and
     /// 0 if it is a wide node; at index `i - 1 >= 1`, 0 if `i - 1` children do as well, else
     /// the number of children given to the left subtree (the right one takes the rest).
@@ -172,62 +176,73 @@ struct Plan<const W: usize> {
 impl<const W: usize> Plan<W> {
     /// Decide for every node of `bin` (not empty), bottom-up, subtrees in parallel.
     fn new<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
-        let empty = Decision { cost: [0.0; W], choice: [0; W], split: 0, packable: false, range: LeafRange::default() };
+        let empty = Decision { choice: [0; W], split: 0, packable: false, range: LeafRange::default() };
         let mut nodes = vec![empty; bin.nodes.len()];
         Self::subtree(bin, prims, 0, &mut nodes);
         Plan { nodes }
     }
 
     /// Decide for the subtree of binary node `root`, whose nodes are `out` (in the binary
-    /// tree's depth-first order, a subtree is a contiguous run starting at its root).
-    fn subtree<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P, root: usize, out: &mut [Decision<W>]) {
+    /// tree's depth-first order, a subtree is a contiguous run starting at its root); returns
+    /// the root's costs.
+    fn subtree<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P, root: usize, out: &mut [Decision<W>]) -> Costs<W> {
         let node = &bin.nodes[root];
         if out.len() > PARALLEL_PLAN && !node.is_leaf() {
             let right = node.start as usize - root;
             let (this, children) = out.split_at_mut(1);
             let (l, r) = children.split_at_mut(right - 1);
-            rayon::join(|| Self::subtree(bin, prims, root + 1, l), || Self::subtree(bin, prims, root + right, r));
-            this[0] = Self::decide(bin, root, &l[0], &r[0]);
-            return;
+            let (lc, rc) =
+                rayon::join(|| Self::subtree(bin, prims, root + 1, l), || Self::subtree(bin, prims, root + right, r));
+            let (d, cost) = Self::decide(bin, root, (&l[0], &lc), (&r[0], &rc));
+            this[0] = d;
+            return cost;
         }
-        // Children come after their parent: a backwards sweep meets them first.
+        // Children come after their parent: a backwards sweep meets them first, each child's
+        // subtree as one run (the right child's, then the left's), so the costs of the
+        // subtrees not yet claimed by their parent form a stack, as deep as the tree, whose top
+        // two are the node's left and right children when it is met.
+        let mut costs: Vec<Costs<W>> = Vec::with_capacity(MAX_DEPTH + 1);
         for k in (0..out.len()).rev() {
             let i = root + k;
             let n = &bin.nodes[i];
-            out[k] = if n.is_leaf() {
+            let (d, cost) = if n.is_leaf() {
                 Self::decide_leaf(bin, prims, i)
             } else {
                 let (l, r) = (i + 1 - root, n.start as usize - root);
-                Self::decide(bin, i, &out[l], &out[r])
+                let (lc, rc) = (costs.pop(), costs.pop());
+                let (lc, rc) = (lc.expect("the left child's costs"), rc.expect("the right child's costs"));
+                Self::decide(bin, i, (&out[l], &lc), (&out[r], &rc))
             };
+            out[k] = d;
+            costs.push(cost);
         }
+        costs.pop().expect("the root's costs")
     }
 
     /// A binary leaf stays a leaf.
-    fn decide_leaf<P: Primitives + ?Sized>(bin: &Bvh, prims: &P, i: usize) -> Decision<W> {
+    fn decide_leaf<P: Primitives + ?Sized>(bin: &Bvh, prims: &P, i: usize) -> (Decision<W>, Costs<W>) {
         let node = &bin.nodes[i];
         let (start, count) = (node.start, node.count);
         let packable = (start..start + count).all(|s| prims.triangle(s).is_some());
         let tests = if packable { leaf_tests(count) } else { count as f32 };
-        Decision {
-            cost: [node.bounds().half_area() * tests; W],
-            choice: [1; W],
-            split: 0,
-            packable,
-            range: LeafRange { start, count },
-        }
+        let d = Decision { choice: [1; W], split: 0, packable, range: LeafRange { start, count } };
+        (d, [node.bounds().half_area() * tests; W])
     }
 
-    /// Interior node `i`, given its children's decisions.
-    fn decide(bin: &Bvh, i: usize, l: &Decision<W>, r: &Decision<W>) -> Decision<W> {
+    /// Interior node `i`, given its children's decisions and costs.
+    fn decide(
+        bin: &Bvh,
+        i: usize,
+        (l, l_cost): (&Decision<W>, &Costs<W>),
+        (r, r_cost): (&Decision<W>, &Costs<W>),
+    ) -> (Decision<W>, Costs<W>) {
         let area = bin.nodes[i].bounds().half_area();
         let count = l.range.count + r.range.count;
         let packable = l.packable && r.packable;
-        let both = best_splits(&l.cost, &r.cost, l.range.count as usize);
+        let both = best_splits(l_cost, r_cost, l.range.count as usize);
         let as_node = area * NODE_COST + both[W - 1].0;
         let as_leaf = if packable && count <= LEAF_TRIANGLES { area * leaf_tests(count) } else { f32::INFINITY };
         let mut d = Decision {
-            cost: [0.0; W],
             choice: [0; W],
             // At least one slot each: where no split has a finite cost (boxes so large that
             // their areas overflow), `best_splits` names none.
@@ -235,12 +250,12 @@ impl<const W: usize> Plan<W> {
             packable,
             range: LeafRange { start: l.range.start, count },
         };
-        (d.cost[0], d.choice[0]) = if as_leaf <= as_node { (as_leaf, 1) } else { (as_node, 0) };
+        let mut cost = [0.0; W];
+        (cost[0], d.choice[0]) = if as_leaf <= as_node { (as_leaf, 1) } else { (as_node, 0) };
         for j in 2..=W {
-            (d.cost[j - 1], d.choice[j - 1]) =
-                if both[j - 1].0 < d.cost[j - 2] { both[j - 1] } else { (d.cost[j - 2], 0) };
+            (cost[j - 1], d.choice[j - 1]) = if both[j - 1].0 < cost[j - 2] { both[j - 1] } else { (cost[j - 2], 0) };
         }
-        d
+        (d, cost)
     }
 
     /// The children of the wide node made for interior binary node `i`; returns them and
@@ -272,55 +287,76 @@ impl<const W: usize> Plan<W> {
     }
 }
 
-impl<const W: usize> WideBvh<W>
-where
-    Lanes<W>: NodeWidth<W>,
-{
-    /// Collapse a binary BVH by the surface area heuristic (see the module documentation).
-    /// Leaves of static triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
-    pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
-        let mut out = WideBvh { simd: Simd::detect(), ..WideBvh::default() };
-        let Some(root) = bin.nodes.first() else { return out };
-        let b = root.bounds();
-        out.reach = b.min.abs().max(b.max.abs()).max_element();
-        out.nodes.push(WideNode::empty());
-        if root.is_leaf() {
-            let r = out.leaf(prims, &Plan::<W>::decide_leaf(bin, prims, 0));
-            out.nodes[0].set(0, &root.bounds(), r);
-            return out;
-        }
-        let plan = Plan::<W>::new(bin, prims);
-        if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << ChildRef::BLOCK_BITS {
-            out.fill(bin, &plan, prims, 0, 0);
-            return out;
-        }
-        // The root's subtrees collapse on separate tasks, then join the root's tree with
-        // their references moved past what is already there.
-        use rayon::prelude::*;
-        let (kids, len) = plan.children(bin, 0);
-        let parts: Vec<Option<WideBvh<W>>> = kids[..len]
-            .par_iter()
-            .map(|kid| {
-                (!kid.leaf).then(|| {
-                    let mut part = WideBvh { nodes: vec![WideNode::empty()], ..WideBvh::default() };
-                    part.fill(bin, &plan, prims, kid.bin, 0);
-                    part
-                })
-            })
-            .collect();
-        let mut top = WideNode::empty();
-        for (slot, (kid, part)) in kids[..len].iter().zip(parts).enumerate() {
-            let r = match part {
-                Some(part) => out.append(part),
-                None => out.leaf(prims, &plan.nodes[kid.bin]),
-            };
-            top.set(slot, &bin.nodes[kid.bin].bounds(), r);
-        }
-        out.nodes[0] = top;
-        out
+/// How many nodes, blocks and ranges a part of the wide tree takes; or where a part starts in
+/// the tree's arrays.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Counts {
+    nodes: usize,
+    blocks: usize,
+    ranges: usize,
+}
+
+impl Counts {
+    fn plus(self, o: Counts) -> Counts {
+        Counts { nodes: self.nodes + o.nodes, blocks: self.blocks + o.blocks, ranges: self.ranges + o.ranges }
+    }
+}
+
+/// Where one part of the collapse writes: its share of the wide tree's arrays (each part's
+/// own run of nodes, blocks and ranges), `base` where that share starts in the tree, `used`
+/// how much of it is written. The arrays are made at their final size before the parts are
+/// filled, in parallel, where parts appended one after another into growing arrays held the
+/// parts and the tree at once, and the growth's copies (the blocks were the collapse's peak
+/// memory, about twice their size).
+struct Out<'a, const W: usize> {
+    nodes: &'a mut [WideNode<W>],
+    blocks: &'a mut [Tri4],
+    ranges: &'a mut [LeafRange],
+    base: Counts,
+    used: Counts,
+}
+
+impl<'a, const W: usize> Out<'a, W> {
+    /// Split off the first `c` of each array, as a part starting at `base`.
+    fn take(&mut self, c: Counts, base: Counts) -> Out<'a, W> {
+        let (nodes, blocks, ranges) = (
+            std::mem::take(&mut self.nodes).split_at_mut(c.nodes),
+            std::mem::take(&mut self.blocks).split_at_mut(c.blocks),
+            std::mem::take(&mut self.ranges).split_at_mut(c.ranges),
+        );
+        (self.nodes, self.blocks, self.ranges) = (nodes.1, blocks.1, ranges.1);
+        Out { nodes: nodes.0, blocks: blocks.0, ranges: ranges.0, base, used: Counts::default() }
     }
 
-    /// Make the wide node at `at` for interior binary node `bin_index`, and its subtree.
+    /// A new node (written later by `fill`); its index in the tree.
+    fn node(&mut self) -> usize {
+        self.used.nodes += 1;
+        self.base.nodes + self.used.nodes - 1
+    }
+
+    /// A leaf reference for the subtree that `d` decided on: packed blocks when its slots are
+    /// all static triangles and few enough, else a range (as [`leaf_size`] counts them).
+    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, d: &Decision<W>) -> ChildRef {
+        let LeafRange { start, count } = d.range;
+        let first = self.base.blocks + self.used.blocks;
+        let size = leaf_size(d, first);
+        if size.blocks > 0 {
+            let chunks = (start..start + count).step_by(4);
+            for (block, chunk) in self.blocks[self.used.blocks..][..size.blocks].iter_mut().zip(chunks) {
+                let end = (chunk + 4).min(start + count);
+                *block = Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t))));
+            }
+            self.used.blocks += size.blocks;
+            ChildRef::packed(first as u32, size.blocks as u32)
+        } else {
+            self.ranges[self.used.ranges] = d.range;
+            self.used.ranges += 1;
+            ChildRef::range((self.base.ranges + self.used.ranges - 1) as u32)
+        }
+    }
+
+    /// Make the wide node at index `at` for interior binary node `bin_index`, and its subtree
+    /// (in the order [`Plan::count`] counts them).
     fn fill<P: Primitives + ?Sized>(&mut self, bin: &Bvh, plan: &Plan<W>, prims: &P, bin_index: usize, at: usize) {
         let (kids, len) = plan.children(bin, bin_index);
         let mut wide = WideNode::empty();
@@ -332,51 +368,135 @@ where
                 let r = self.leaf(prims, &plan.nodes[kid.bin]);
                 wide.set(slot, &child.bounds(), r);
             } else {
-                let idx = self.nodes.len();
-                self.nodes.push(WideNode::empty());
+                let idx = self.node();
                 wide.set(slot, &child.bounds(), ChildRef::node(idx as u32));
                 interior[n_interior] = (kid.bin, idx);
                 n_interior += 1;
             }
         }
-        self.nodes[at] = wide;
+        self.nodes[at - self.base.nodes] = wide;
         for &(k, idx) in &interior[..n_interior] {
             self.fill(bin, plan, prims, k, idx);
         }
     }
+}
 
-    /// Add the nodes, blocks and ranges of `part` (a tree of its own, root at 0) after this
-    /// tree's, moving its references along; returns the reference to its root.
-    fn append(&mut self, part: WideBvh<W>) -> ChildRef {
-        let (nodes, blocks, ranges) = (self.nodes.len() as u32, self.blocks.len() as u32, self.ranges.len() as u32);
-        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
-            // The caller checked that every block index fits in BLOCK_BITS.
-            n.child = n.child.map(|c| c.moved(nodes, blocks, ranges));
-            n
-        }));
-        self.blocks.extend(part.blocks);
-        self.ranges.extend(part.ranges);
-        ChildRef::node(nodes)
+/// What the leaf that `d` decided on takes, its first block at index `first`: blocks when its
+/// slots are all static triangles, few enough, and the first block's index fits a
+/// [`ChildRef`]; else a range.
+fn leaf_size<const W: usize>(d: &Decision<W>, first: usize) -> Counts {
+    let blocks = d.range.count.div_ceil(4);
+    if d.packable && blocks <= ChildRef::MAX_BLOCKS && first < 1 << ChildRef::BLOCK_BITS {
+        Counts { blocks: blocks as usize, ..Counts::default() }
+    } else {
+        Counts { ranges: 1, ..Counts::default() }
+    }
+}
+
+impl<const W: usize> Plan<W> {
+    /// The nodes, blocks and ranges that [`Out::fill`] writes for interior binary node
+    /// `bin_index` (its own node not included), in its order, from `at` on: the returned
+    /// counts are `at`'s plus them.
+    fn count(&self, bin: &Bvh, bin_index: usize, mut at: Counts) -> Counts {
+        let (kids, len) = self.children(bin, bin_index);
+        for kid in &kids[..len] {
+            at = if kid.leaf {
+                at.plus(leaf_size(&self.nodes[kid.bin], at.blocks))
+            } else {
+                Counts { nodes: at.nodes + 1, ..at }
+            };
+        }
+        for kid in kids[..len].iter().filter(|k| !k.leaf) {
+            at = self.count(bin, kid.bin, at);
+        }
+        at
+    }
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W>,
+{
+    /// Collapse a binary BVH by the surface area heuristic (see the module documentation).
+    /// Leaves of static triangles (as `prims` reports them) are packed into [`Tri4`] blocks.
+    pub fn from_binary<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
+        let mut tree = WideBvh { simd: Simd::detect(), ..WideBvh::default() };
+        let Some(root) = bin.nodes.first() else { return tree };
+        let b = root.bounds();
+        tree.reach = b.min.abs().max(b.max.abs()).max_element();
+        if root.is_leaf() {
+            let d = Plan::<W>::decide_leaf(bin, prims, 0).0;
+            tree.alloc(leaf_size(&d, 0).plus(Counts { nodes: 1, ..Counts::default() }));
+            let mut out = tree.out();
+            out.used.nodes = 1;
+            let r = out.leaf(prims, &d);
+            tree.nodes[0].set(0, &root.bounds(), r);
+            return tree;
+        }
+        let plan = Plan::<W>::new(bin, prims);
+        let one = Counts { nodes: 1, ..Counts::default() };
+        if bin.nodes.len() < PARALLEL_COLLAPSE || bin.prim_indices.len() >= 1 << ChildRef::BLOCK_BITS {
+            // On one thread, counting from the tree's start: the blocks' indices decide which
+            // leaves fit a packed reference.
+            tree.alloc(plan.count(bin, 0, one));
+            let mut out = tree.out();
+            out.used.nodes = 1;
+            out.fill(bin, &plan, prims, 0, 0);
+            return tree;
+        }
+        // The root's subtrees collapse on separate tasks, each into its run of the arrays
+        // (every block index fits a packed reference here, so each part is counted from 0).
+        use rayon::prelude::*;
+        let (kids, len) = plan.children(bin, 0);
+        let sizes: Vec<Counts> = kids[..len]
+            .par_iter()
+            .map(|kid| if kid.leaf { leaf_size(&plan.nodes[kid.bin], 0) } else { plan.count(bin, kid.bin, one) })
+            .collect();
+        tree.alloc(sizes.iter().fold(one, |a, &s| a.plus(s)));
+        let mut rest = tree.out();
+        rest.take(one, Counts::default());
+        let mut base = one;
+        let mut parts = Vec::with_capacity(len);
+        for &size in &sizes {
+            parts.push(rest.take(size, base));
+            base = base.plus(size);
+        }
+        let refs: Vec<ChildRef> = kids[..len]
+            .par_iter()
+            .zip(parts)
+            .map(|(kid, mut part)| {
+                if kid.leaf {
+                    part.leaf(prims, &plan.nodes[kid.bin])
+                } else {
+                    let at = part.node();
+                    part.fill(bin, &plan, prims, kid.bin, at);
+                    ChildRef::node(at as u32)
+                }
+            })
+            .collect();
+        let mut top = WideNode::empty();
+        for (slot, (kid, r)) in kids[..len].iter().zip(refs).enumerate() {
+            top.set(slot, &bin.nodes[kid.bin].bounds(), r);
+        }
+        tree.nodes[0] = top;
+        tree
     }
 
-    /// A leaf reference for the subtree that `d` decided on: packed blocks when its slots are
-    /// all static triangles and few enough, else a range.
-    fn leaf<P: Primitives + ?Sized>(&mut self, prims: &P, d: &Decision<W>) -> ChildRef {
-        let (range, packable) = (d.range, d.packable);
-        let LeafRange { start, count } = range;
-        if packable
-            && count.div_ceil(4) <= ChildRef::MAX_BLOCKS
-            && (self.blocks.len() as u32) < (1 << ChildRef::BLOCK_BITS)
-        {
-            let first = self.blocks.len() as u32;
-            for chunk in (start..start + count).step_by(4) {
-                let end = (chunk + 4).min(start + count);
-                self.blocks.push(Tri4::pack((chunk..end).filter_map(|s| prims.triangle(s).map(|t| (s, t)))));
-            }
-            ChildRef::packed(first, self.blocks.len() as u32 - first)
-        } else {
-            self.ranges.push(range);
-            ChildRef::range(self.ranges.len() as u32 - 1)
+    /// Make the arrays at their final sizes (the nodes empty, to be written).
+    fn alloc(&mut self, c: Counts) {
+        self.nodes = vec![WideNode::empty(); c.nodes];
+        self.blocks = vec![Tri4::EMPTY; c.blocks];
+        self.ranges = vec![LeafRange::default(); c.ranges];
+    }
+
+    /// The whole tree's arrays, to write.
+    fn out(&mut self) -> Out<'_, W> {
+        Out {
+            nodes: &mut self.nodes,
+            blocks: &mut self.blocks,
+            ranges: &mut self.ranges,
+            base: Counts::default(),
+            used: Counts::default(),
         }
     }
 }
