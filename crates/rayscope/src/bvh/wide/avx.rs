@@ -147,6 +147,12 @@ pub(super) fn intersect_pair_avx2(_: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_m
         }
         // No mixed signs (NaN lanes, whichever way min and max take them, fail `ok_det`).
         let same_side = or(_mm256_cmp_ps::<_CMP_GE_OQ>(lo, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(hi, zero));
+        // Most triangles a ray meets in a leaf it passes beside: when the edges rule out
+        // every lane, the determinant, the distance and the division are not needed (the hits
+        // are the same; the lanes of a zero mask are never read).
+        if _mm256_movemask_ps(same_side) == 0 {
+            return (0, [0.0; 8], [0.0; 8], [0.0; 8]);
+        }
         let det = add(add(e0, e1), e2);
         let t_scaled = mul(_mm256_fmadd_ps(e2, z2, _mm256_fmadd_ps(e1, z1, mul(e0, z0))), sz);
         let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
