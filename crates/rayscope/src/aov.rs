@@ -1,8 +1,8 @@
 //! Arbitrary output variables: per-pixel facts about the first hit of each camera ray (depth,
 //! position, normal, albedo, primitive id, BVH nodes visited), rendered in parallel tiles
 //! beside the colour image. The camera rays go through the BVH as the renderer's do: in
-//! packets of a row's [`PACKET`] neighbouring pixels, so that the heat map counts what the
-//! renderer's traversal does.
+//! packets of a row's [`PACKET`] neighbouring pixels, and tiles the renderer culls are not
+//! traced, so that the heat map counts what the renderer's traversal does.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -15,7 +15,7 @@ use crate::film::FloatImage;
 use crate::math::Vec2;
 use crate::ray::Ray;
 use crate::record::RayRecorder;
-use crate::render::{RenderProgress, trace_pixel};
+use crate::render::{RenderProgress, TileCulling, trace_pixel};
 use crate::scene::{Hit, Scene, TextureLod};
 use crate::settings::{RenderSettings, ShadingOptions, TextureFilter};
 
@@ -36,7 +36,9 @@ pub enum Aov {
     PrimId,
     /// BVH node boxes tested for the camera ray by the renderer's traversal (a packet of a
     /// row's neighbouring pixels, as rendering traces camera rays): the width of the wide
-    /// tree times the nodes entered, the traversal heat map.
+    /// tree times the nodes entered, the traversal heat map. In a tile the renderer culls
+    /// ([`crate::render::TileCulling`]: no ray traced), the pixel's share of the boxes its
+    /// tile's frustum test looked at (fractional).
     NodesVisited,
     /// The mip level trilinear filtering reads ([`crate::settings::TextureFilter::Trilinear`],
     /// whatever the settings' filter): of the first textured hit along sample 0 of the pixel,
@@ -67,9 +69,20 @@ pub fn render_aov(
     let shading = settings.shading_options();
     let trilinear = RenderSettings { texture_filter: TextureFilter::Trilinear, ..settings.clone() };
     let still = CameraMotion::still(*camera);
+    let culling = TileCulling::of(scene, settings, &still).filter(|_| aov == Aov::NodesVisited);
+    let width = scene.geometry.wide.width() as f32;
     let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x0, x1, y| {
         if aov == Aov::MipLevel {
             return (x0..x1).map(|x| [mip_level(scene, &trilinear, &still, x, y), 0.0, 0.0]).collect();
+        }
+        if let Some(culling) = &culling {
+            // The runs of `per_tile` are the renderer's: one tile's row.
+            let tile = culling.tile(x0, y);
+            let test = culling.test(tile);
+            if !test.may_hit {
+                let share = width * test.nodes as f32 / tile.pixels() as f32;
+                return vec![[share, 0.0, 0.0]; (x1 - x0) as usize];
+            }
         }
         let run: Vec<_> = (x0..x1).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
         let mut stats = [TraversalStats::default(); PACKET];

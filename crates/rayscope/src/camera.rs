@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::animation::Shutter;
+use crate::geometry::{DirectionRect, Frustum};
 use crate::math::{Mat3, Quat, Vec2, Vec3, Vec3A, quat_from_euler_degrees};
 use crate::motion::MotionPath;
 use crate::ray::Ray;
@@ -251,6 +252,24 @@ impl RayGenerator {
     #[inline]
     pub fn ray(&self, px: u32, py: u32, jitter: Vec2) -> Ray {
         Ray::new(self.origin, self.direction(px, py, jitter).normalize())
+    }
+
+    /// A frustum holding every ray [`RayGenerator::ray`] gives for the pixels of columns
+    /// `x[0]..x[1]` and rows `y[0]..y[1]` with a jitter within `reach` pixels of the pixel
+    /// centre (the filter's radius), widened by one more pixel on every side: far more than
+    /// the rounding of the rays' directions moves them.
+    pub fn tile_frustum(&self, x: [u32; 2], y: [u32; 2], reach: f32) -> Frustum {
+        let m = reach + 1.0;
+        let (sx, sy) = (|p: f32| p * self.scale.x - 1.0, |p: f32| 1.0 - p * self.scale.y);
+        let rect = DirectionRect {
+            right: self.right,
+            up: self.up,
+            forward: self.forward,
+            x: [sx(x[0] as f32 + 0.5 - m), sx(x[1] as f32 - 0.5 + m)],
+            // Screen y grows upwards, rows downwards.
+            y: [sy(y[1] as f32 - 0.5 + m), sy(y[0] as f32 + 0.5 - m)],
+        };
+        Frustum::new(self.origin, &rect)
     }
 
     /// The unnormalised direction of [`RayGenerator::ray`]: its component along the view

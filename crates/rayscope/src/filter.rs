@@ -70,6 +70,16 @@ impl PixelFilter {
     pub fn warp(self, u: Vec2) -> Vec2 {
         Vec2::new(warp_1d(self, u.x), warp_1d(self, u.y))
     }
+
+    /// The largest offset [`PixelFilter::warp`] gives along an axis, in pixels: how far
+    /// beyond its pixel's centre a sample may land.
+    pub fn radius(self) -> f32 {
+        match self {
+            PixelFilter::Box => 0.5,
+            PixelFilter::Tent => 1.0,
+            PixelFilter::Gaussian => RADIUS,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -94,5 +104,19 @@ mod tests {
         let (m, v, r) = moments(PixelFilter::Gaussian);
         // Truncation at 3 sigma trims the variance by about 2.7%.
         assert!(m.abs() < 1e-3 && (v - 0.25 * 0.973).abs() < 3e-3 && r <= RADIUS, "{m} {v} {r}");
+    }
+
+    /// No sample lands farther from its pixel's centre than the filter's radius (what the
+    /// renderer's tile frustums are widened by), the ends of `[0, 1)` included.
+    #[test]
+    fn warps_stay_within_the_radius() {
+        for f in [PixelFilter::Box, PixelFilter::Tent, PixelFilter::Gaussian] {
+            let ends = [0.0, f32::EPSILON, 0.5, 1.0 - f32::EPSILON / 2.0];
+            let us = (0..=1 << 16).map(|i| i as f32 / 65537.0).chain(ends);
+            for u in us {
+                let w = warp_1d(f, u);
+                assert!(w.abs() <= f.radius(), "{f:?} u {u}: {w}");
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use crate::bvh::PACKET;
+use crate::bvh::{FrustumTest, PACKET};
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::cone::Footprint;
 use crate::film::{Film, FilmSlices, PassSlices, PixelAccumulator, Residual, finite_or_black};
@@ -53,6 +53,68 @@ impl RenderOutput {
     }
 }
 
+/// The tiles rendering culls: [`PACKET`] by [`TILE_ROWS`] pixels from the top-left corner
+/// (cut by the image's edges), each tested once per pass. A tile whose frustum (every ray of
+/// its pixels, at every offset the pixel filter gives, widened by a pixel) meets no leaf box
+/// of the BVH cannot hit anything: where every missing ray returns the same colour (the
+/// background, no environment map) and camera rays share an origin (a still pinhole), the
+/// renderer fills such a tile with it and traces none of its rays. The film, the ray counts
+/// and every other number are those of tracing them.
+#[derive(Clone, Copy, Debug)]
+pub struct TileCulling<'a> {
+    scene: &'a Scene,
+    /// The still camera's rays.
+    rays: RayGenerator,
+    /// How far from its pixel's centre a sample may land ([`crate::settings::PixelFilter::radius`]).
+    reach: f32,
+    /// The image's size.
+    size: [u32; 2],
+}
+
+/// A tile of the image: columns `x[0]..x[1]`, rows `y[0]..y[1]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tile {
+    /// Its columns.
+    pub x: [u32; 2],
+    /// Its rows.
+    pub y: [u32; 2],
+}
+
+impl Tile {
+    /// Its pixels.
+    pub fn pixels(&self) -> u32 {
+        (self.x[1] - self.x[0]) * (self.y[1] - self.y[0])
+    }
+}
+
+impl<'a> TileCulling<'a> {
+    /// The culling of a render of `scene` with `settings` through `camera`: `None` where
+    /// rendering traces every camera ray (a moving camera, a lens, an environment map).
+    pub fn of(scene: &'a Scene, settings: &RenderSettings, camera: &CameraMotion) -> Option<TileCulling<'a>> {
+        let pinhole = camera.is_still() && ThinLens::new(settings, &camera.start).is_none();
+        (pinhole && scene.environment.is_none()).then(|| {
+            TileCulling::new(scene, settings, RayGenerator::new(&camera.start, settings.width, settings.height))
+        })
+    }
+
+    fn new(scene: &'a Scene, settings: &RenderSettings, rays: RayGenerator) -> TileCulling<'a> {
+        TileCulling { scene, rays, reach: settings.filter.radius(), size: [settings.width, settings.height] }
+    }
+
+    /// The tile that holds pixel `(x, y)`.
+    pub fn tile(&self, x: u32, y: u32) -> Tile {
+        let (x0, y0) = (x - x % PACKET as u32, y - y % TILE_ROWS as u32);
+        let [w, h] = self.size;
+        Tile { x: [x0, (x0 + PACKET as u32).min(w)], y: [y0, (y0 + TILE_ROWS as u32).min(h)] }
+    }
+
+    /// The frustum test of `tile`: `may_hit` false when none of its rays can hit anything,
+    /// and the nodes the test looked into.
+    pub fn test(&self, tile: Tile) -> FrustumTest {
+        self.scene.frustum_test(&self.rays.tile_frustum(tile.x, tile.y, self.reach))
+    }
+}
+
 /// Which samples a pass adds to each pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SamplePass {
@@ -82,40 +144,66 @@ pub fn render_pass(
 ) -> (RayCounts, bool) {
     // The sky is chosen here, once: a scene without an environment map runs the miss path
     // it always had (see `crate::sky`).
+    pass_culling(scene, settings, camera, film, pass, Culling::Tiles, cancel, progress)
+}
+
+/// Whether a pass may skip the camera rays of tiles that cannot hit anything.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Culling {
+    /// Where it can ([`Pass::cull`]): rendering's choice.
+    Tiles,
+    /// Never: every camera ray is traced (the oracle of the culling's tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Off,
+}
+
+/// [`render_pass`], culling tiles or not.
+#[allow(clippy::too_many_arguments)]
+fn pass_culling(
+    scene: &Scene,
+    settings: &RenderSettings,
+    camera: &CameraMotion,
+    film: &mut Film,
+    pass: SamplePass,
+    culling: Culling,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+) -> (RayCounts, bool) {
+    let run = PassRun { camera, pass, culling, cancel, progress };
     match &scene.environment {
-        None => pass_footprint(Integrator::new(scene, settings), camera, film, pass, cancel, progress),
-        Some(env) => pass_footprint(Integrator::with_sky(scene, settings, env), camera, film, pass, cancel, progress),
+        None => pass_footprint(Integrator::new(scene, settings), film, run),
+        Some(env) => pass_footprint(Integrator::with_sky(scene, settings, env), film, run),
     }
+}
+
+/// What a pass is asked to do, beside its integrator and film.
+#[derive(Clone, Copy)]
+struct PassRun<'a> {
+    camera: &'a CameraMotion,
+    pass: SamplePass,
+    culling: Culling,
+    cancel: &'a AtomicBool,
+    progress: &'a (dyn Fn(RenderProgress) + Sync),
 }
 
 /// [`render_pass`] with `integrator`, whose rays carry cones when textures are filtered
 /// trilinearly (chosen here, once: other filters run code with no footprint in it).
-fn pass_footprint<S: Sky>(
-    integrator: Integrator<S>,
-    camera: &CameraMotion,
-    film: &mut Film,
-    pass: SamplePass,
-    cancel: &AtomicBool,
-    progress: &(dyn Fn(RenderProgress) + Sync),
-) -> (RayCounts, bool) {
+fn pass_footprint<S: Sky>(integrator: Integrator<S>, film: &mut Film, run: PassRun) -> (RayCounts, bool) {
     if integrator.settings.texture_filter == TextureFilter::Trilinear {
-        return pass_with(&integrator.with_cones(&camera.start), camera, film, pass, cancel, progress);
+        return pass_with(&integrator.with_cones(&run.camera.start), film, run);
     }
-    pass_with(&integrator, camera, film, pass, cancel, progress)
+    pass_with(&integrator, film, run)
 }
 
 /// [`render_pass`] with `integrator`.
-fn pass_with<S: Sky, C: Footprint>(
-    integrator: &Integrator<S, C>,
-    camera: &CameraMotion,
-    film: &mut Film,
-    pass: SamplePass,
-    cancel: &AtomicBool,
-    progress: &(dyn Fn(RenderProgress) + Sync),
-) -> (RayCounts, bool) {
+fn pass_with<S: Sky, C: Footprint>(integrator: &Integrator<S, C>, film: &mut Film, run: PassRun) -> (RayCounts, bool) {
+    let PassRun { camera, pass, culling, cancel, progress } = run;
     let settings = integrator.settings;
     let still = camera.is_still().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
-    let setup = Pass::new(integrator, camera, still.as_ref(), pass);
+    let mut setup = Pass::new(integrator, camera, still.as_ref(), pass);
+    if culling == Culling::Off {
+        setup.cull = None;
+    }
     // A fresh film's first pass of one sample adds to `f32` sums, any other to `f64` ones
     // (`Film::pass_slices`): the same loop, generic over the sums.
     let results = match film.pass_slices(pass.samples) {
@@ -163,6 +251,12 @@ struct Band {
 /// tasks' worth of rows (50 for 800) to balance two or more threads.
 const BAND_ROWS: usize = 16;
 
+/// Rows of a tile whose camera rays are culled together ([`Pass::tile_culled`]): tiles are
+/// [`PACKET`] pixels wide (a packet's run of a row) and this tall, two to a band. Small
+/// enough to follow a silhouette (on the dragon, 8x8 tiles leave out 70% of the pixels its
+/// rays miss), large enough that the frustum test costs little per pixel.
+pub const TILE_ROWS: usize = 8;
+
 /// The samples a pixel that has `first` gets in `pass`: `first..` the returned end.
 fn sample_range(first: u32, pass: SamplePass) -> u32 {
     first.saturating_add(pass.samples).min(pass.limit.max(first))
@@ -206,6 +300,11 @@ struct Pass<'a, S: Sky, C: Footprint> {
     /// Whether camera rays go through the BVH in packets: a still pinhole's rays share their
     /// origin (a lens's do not, and the packet would fall back to one by one).
     packets: bool,
+    /// Where camera rays go in packets and misses do not depend on the ray (no environment
+    /// map): the tiles' frustum tests, and the colour every camera ray that hits nothing
+    /// returns, which fills a tile whose frustum meets no box of the BVH, its rays not traced
+    /// ([`TileCulling`]). `None`: every pixel is traced.
+    cull: Option<(TileCulling<'a>, Color)>,
     /// Which samples the pass adds.
     pass: SamplePass,
 }
@@ -245,12 +344,19 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 }
                 let mut tally = Tally::default();
                 let mut residuals = Vec::new();
+                let y0 = b * BAND_ROWS;
+                let culled = self.culled_tiles(y0, sums.len() / w);
                 let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
                 for (row, (sums, counts)) in rows.enumerate() {
-                    let y = (b * BAND_ROWS + row) as u32;
+                    let y = (y0 + row) as u32;
                     let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
+                    let tiles = w.div_ceil(PACKET);
                     for (run, (sums, counts)) in runs.enumerate() {
                         let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut residuals };
+                        if let Some((_, miss)) = self.cull.filter(|_| culled[row / TILE_ROWS * tiles + run]) {
+                            tally.add(self.fill_missed(pixels, miss));
+                            continue;
+                        }
                         // Pixels side by side that are at the same sample, seen by a still
                         // camera: their camera rays share the pinhole and go through the BVH
                         // together.
@@ -277,7 +383,26 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     ) -> Pass<'a, S, C> {
         // The lens of the pose at shutter open: a moving camera keeps its focus distance.
         let lens = ThinLens::new(integrator.settings, &camera.start);
-        Pass { integrator, camera, still, lens, packets: camera.is_still() && lens.is_none(), pass }
+        let packets = camera.is_still() && lens.is_none();
+        let culling =
+            still.filter(|_| packets).map(|&rays| TileCulling::new(integrator.scene, integrator.settings, rays));
+        let cull = culling.zip(integrator.sky.uniform(integrator.settings));
+        Pass { integrator, camera, still, lens, packets, cull, pass }
+    }
+
+    /// Which tiles of the band of `rows` rows from row `y0` hold no pixel whose camera rays
+    /// could hit anything, by tile row then column ([`TileCulling::tile`]; empty when the
+    /// pass does not cull).
+    fn culled_tiles(&self, y0: usize, rows: usize) -> Vec<bool> {
+        let Some((culling, _)) = &self.cull else { return Vec::new() };
+        let w = self.integrator.settings.width as usize;
+        let mut culled = Vec::with_capacity(rows.div_ceil(TILE_ROWS) * w.div_ceil(PACKET));
+        for ty in (y0..y0 + rows).step_by(TILE_ROWS) {
+            for tx in (0..w).step_by(PACKET) {
+                culled.push(!culling.test(culling.tile(tx as u32, ty as u32)).may_hit);
+            }
+        }
+        culled
     }
 
     /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,
@@ -373,16 +498,36 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         total
     }
 
+    /// Add the pass's samples to `run`, whose camera rays cannot hit anything (its tile was
+    /// culled): each sample is `miss`, the colour every missing ray returns, added as a
+    /// traced miss is (the same bits, the same ray counts), without making or tracing a ray.
+    fn fill_missed<A: PixelAccumulator>(&self, run: PixelRun<A>, miss: Color) -> Tally {
+        let camera_ray = RayCounts { primary_and_secondary: 1, shadow: 0 };
+        self.per_sample(run, |_, _| (miss, camera_ray))
+    }
+
     /// Add the pass's samples to `run` one pixel and one sample at a time (pixels at
     /// different sample counts, or a moving camera).
     fn sample_alone<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
+        let y = run.y;
+        self.per_sample(run, |x, k| self.sample_pixel(x, y, k, &mut NoRecorder))
+    }
+
+    /// Add the pass's samples to `run` pixel by pixel, sample by sample, sample `k` of the
+    /// pixel in column `x` being `sample(x, k)`: its colour and the rays it cast.
+    #[inline(always)]
+    fn per_sample<A: PixelAccumulator>(
+        &self,
+        run: PixelRun<A>,
+        mut sample: impl FnMut(u32, u32) -> (Color, RayCounts),
+    ) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let mut total = Tally::default();
         let row = y * self.integrator.settings.width;
         for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
             let last = sample_range(*count, self.pass);
             for k in *count..last {
-                let (c, r) = self.sample_pixel(x, y, k, &mut NoRecorder);
+                let (c, r) = sample(x, k);
                 sum.add(finite_or_black(c, &mut total.dropped), row + x, residuals);
                 total.rays.add(r);
             }
@@ -461,4 +606,84 @@ fn trace_footprint<S: Sky, R: RayRecorder>(
         return Pass::new(&integrator.with_cones(&camera.start), camera, None, pass).sample_pixel(x, y, k, rec);
     }
     Pass::new(&integrator, camera, None, pass).sample_pixel(x, y, k, rec)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{LoadContext, builtin};
+    use crate::settings::PixelFilter;
+
+    /// A film's sums, sample counts and residuals, as bits.
+    fn film_bits(film: &Film) -> (Vec<[u64; 3]>, Vec<u32>, usize) {
+        (film.sums().map(|s| s.map(f64::to_bits)).collect(), film.counts().to_vec(), film.residuals().len())
+    }
+
+    /// Passes of `samples` each (the first on `f32` sums, the later ones on `f64`), culling
+    /// tiles or not: the films and the ray counts.
+    fn passes(scene: &Scene, settings: &RenderSettings, samples: &[u32], culling: Culling) -> (Film, RayCounts) {
+        let mut film = Film::new(settings.width, settings.height);
+        let mut rays = RayCounts::default();
+        let camera = scene.camera_motion();
+        for &n in samples {
+            let pass = SamplePass { samples: n, limit: u32::MAX, planned: 0, seed: settings.seed };
+            let (r, complete) =
+                pass_culling(scene, settings, &camera, &mut film, pass, culling, &AtomicBool::new(false), &|_| {});
+            assert!(complete);
+            rays.add(r);
+        }
+        (film, rays)
+    }
+
+    /// Tiles whose camera rays cannot hit anything, filled without tracing them, give the
+    /// films (every sum, count and residual, bit for bit) and the ray counts of tracing every
+    /// ray: one sample, then more on the `f64` sums, with each pixel filter (whose samples
+    /// reach past the pixel), an image whose last tiles are cut by its edges, and a scene
+    /// with an environment map (which culls nothing).
+    #[test]
+    fn culled_tiles_render_as_traced_ones() {
+        let load = |name| Scene::from_desc(&builtin::scene_desc(name).unwrap(), &LoadContext::default()).unwrap();
+        for name in ["cornell-box", "spheres", "single-triangle", "shading-models"] {
+            let scene = load(name);
+            for filter in [PixelFilter::Box, PixelFilter::Tent, PixelFilter::Gaussian] {
+                let settings = RenderSettings { width: 77, height: 61, filter, ..RenderSettings::default() };
+                let (traced, rays) = passes(&scene, &settings, &[1, 2], Culling::Off);
+                let (culled, culled_rays) = passes(&scene, &settings, &[1, 2], Culling::Tiles);
+                assert_eq!(film_bits(&culled), film_bits(&traced), "{name} {filter:?}");
+                assert_eq!(culled_rays, rays, "{name} {filter:?}");
+            }
+        }
+    }
+
+    /// The culling is not idle: most tiles of the course's Cornell box at its default size,
+    /// seen from outside, hold only background, and are culled; a tile the box fills is not.
+    #[test]
+    fn background_tiles_are_culled() {
+        let scene = Scene::from_desc(&builtin::scene_desc("cornell-box").unwrap(), &LoadContext::default()).unwrap();
+        let settings = RenderSettings::default();
+        let integrator = Integrator::new(&scene, &settings);
+        let camera = scene.camera_motion();
+        let still = RayGenerator::new(&camera.start, settings.width, settings.height);
+        let pass = SamplePass { samples: 1, limit: 1, planned: 1, seed: 0 };
+        let setup = Pass::new(&integrator, &camera, Some(&still), pass);
+        assert!(setup.cull.is_some());
+        let h = settings.height as usize;
+        let culled: Vec<bool> =
+            (0..h).step_by(BAND_ROWS).flat_map(|y0| setup.culled_tiles(y0, BAND_ROWS.min(h - y0))).collect();
+        let share = culled.iter().filter(|c| **c).count() as f64 / culled.len() as f64;
+        assert!(share > 0.5, "{share}");
+        let culling = TileCulling::of(&scene, &settings, &camera).unwrap();
+        let centre = culling.tile(settings.width / 2, settings.height / 2);
+        assert_eq!(centre, Tile { x: [400, 408], y: [400, 408] });
+        assert!(culling.test(centre).may_hit);
+        let corner = culling.tile(799, 799);
+        assert!(!culling.test(corner).may_hit && culling.test(corner).nodes >= 1);
+        // An image's last tiles are cut by its edges.
+        let small = RenderSettings { width: 77, height: 61, ..settings.clone() };
+        let cut = TileCulling::of(&scene, &small, &camera).unwrap().tile(76, 60);
+        assert_eq!((cut, cut.pixels()), (Tile { x: [72, 77], y: [56, 61] }, 25));
+        // An environment map or a lens turns the culling off.
+        let lens = RenderSettings { aperture: 0.1, ..settings.clone() };
+        assert!(TileCulling::of(&scene, &lens, &camera).is_none());
+    }
 }

@@ -15,6 +15,11 @@ use crate::settings::RenderSettings;
 pub trait Sky: Copy + Sync {
     /// The colour arriving along `ray`, which hit nothing, told to `recorder` when it records.
     fn miss<R: RayRecorder>(&self, ray: &Ray, settings: &RenderSettings, recorder: &mut R) -> Color;
+
+    /// The colour every missing ray returns, when it does not depend on the ray (rendering
+    /// then fills the pixels of a tile whose camera rays cannot hit anything without tracing
+    /// them); `None` where it does.
+    fn uniform(&self, settings: &RenderSettings) -> Option<Color>;
 }
 
 /// The settings' background colour, the same in every direction.
@@ -25,6 +30,10 @@ impl Sky for Background {
     #[inline(always)]
     fn miss<R: RayRecorder>(&self, _ray: &Ray, settings: &RenderSettings, _recorder: &mut R) -> Color {
         settings.background
+    }
+
+    fn uniform(&self, settings: &RenderSettings) -> Option<Color> {
+        Some(settings.background)
     }
 }
 
@@ -39,5 +48,9 @@ impl Sky for &Environment {
             return lookup.radiance;
         }
         self.radiance(ray.dir, settings.texture_filter)
+    }
+
+    fn uniform(&self, _: &RenderSettings) -> Option<Color> {
+        None
     }
 }

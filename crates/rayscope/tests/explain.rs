@@ -254,3 +254,22 @@ fn materials_are_named() {
         names("spheres")
     );
 }
+
+/// A pixel of a tile the renderer culls (its frustum meets no box of the BVH) says so: the
+/// trace names the tile and the explanation tells that the renderer filled it with the
+/// background, which the traced rays return; a pixel the Cornell box covers has no such note.
+#[test]
+fn culled_pixels_say_they_were_not_traced() {
+    let scene = builtin_scene("cornell-box", None);
+    let s = RenderSettings::default();
+    let camera = scene.camera_motion();
+    let corner = trace_pixel_samples(&scene, &s, &camera, 3, 5, SampleChoice::All, MAX_RECORDED_RAYS);
+    let tile = corner.culled.expect("the corner's tile is culled");
+    assert_eq!((tile.x, tile.y), ([0, 8], [0, 8]));
+    assert!(tile.nodes >= 1);
+    assert!(corner.samples.iter().all(|s| s.tree.rays.iter().all(|r| r.hit.is_none())));
+    let text = corner.explain().to_string();
+    assert!(text.contains("not traced by the renderer: its tile (columns 0..8, rows 0..8)"), "{text}");
+    let centre = trace_pixel_samples(&scene, &s, &camera, 400, 400, SampleChoice::All, MAX_RECORDED_RAYS);
+    assert!(centre.culled.is_none() && !centre.explain().to_string().contains("not traced"));
+}

@@ -13,7 +13,7 @@ use rayscope::camera::RayGenerator;
 use rayscope::math::{Vec2, Vec3A};
 use rayscope::ray::{Interval, Ray};
 use rayscope::record::{RayTree, RecordedTraversal};
-use rayscope::render::trace_pixel;
+use rayscope::render::{TileCulling, trace_pixel};
 use rayscope::scene::{Scene, builtin::BUILTINS};
 use rayscope::settings::RenderSettings;
 
@@ -41,6 +41,7 @@ fn names(t: &RecordedTraversal) -> Vec<WideRef> {
 #[test]
 fn camera_ray_records_what_the_renderers_packet_entered_and_the_heat_map_counts() {
     let mut rng = Rng(15);
+    let mut culled = 0;
     for scene in scenes("camera_ray_records_what_the_renderers_packet_entered") {
         let s = settings(&scene);
         let width = scene.geometry.wide.width();
@@ -67,10 +68,28 @@ fn camera_ray_records_what_the_renderers_packet_entered_and_the_heat_map_counts(
             assert_eq!(camera.hit.map(|h| h.t), hits[lane].map(|h| h.t), "{} ({x}, {y})", scene.name);
 
             // The heat map's count: the boxes of every node entered.
+            // In a tile the renderer culls, no ray is traced: the pixel's share of the boxes
+            // the tile's frustum test looked at.
             let count = heat.data[(y * s.width + x) as usize];
-            assert_eq!(count, (recorded.nodes() * width) as f32, "{} ({x}, {y}): heat map against record", scene.name);
+            let culling = TileCulling::of(&scene, &s, &scene.camera_motion());
+            let tile = culling.map(|c| (c.tile(x, y), c.test(c.tile(x, y))));
+            match tile {
+                Some((tile, test)) if !test.may_hit => {
+                    culled += 1;
+                    assert!(camera.hit.is_none(), "{} ({x}, {y}): a culled pixel's ray hits", scene.name);
+                    let share = (width as u32 * test.nodes) as f32 / tile.pixels() as f32;
+                    assert_eq!(count, share, "{} ({x}, {y}): heat map of a culled tile", scene.name);
+                }
+                _ => assert_eq!(
+                    count,
+                    (recorded.nodes() * width) as f32,
+                    "{} ({x}, {y}): heat map against record",
+                    scene.name
+                ),
+            }
         }
     }
+    assert!(culled > 0, "no pixel of a culled tile was drawn");
 }
 
 /// The distances at which `ray` enters and leaves box `[min, max]`, in double precision.

@@ -23,7 +23,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::debug::pixel::{PixelTrace, SampleTrace};
+use crate::debug::pixel::{CulledTile, PixelTrace, SampleTrace};
 use crate::environment::EnvironmentLookup;
 use crate::math::Color;
 use crate::record::{LightTerm, RayKind, RecordedRay, StoppedBranch};
@@ -180,6 +180,8 @@ pub struct Explanation {
     pub complete: bool,
     /// Samples whose colour was not finite: the film adds black for them, so they have no term.
     pub dropped_samples: Vec<u32>,
+    /// The pixel's tile, when the renderer culled it ([`PixelTrace::culled`]).
+    pub culled: Option<CulledTile>,
 }
 
 impl PixelTrace {
@@ -193,6 +195,7 @@ impl PixelTrace {
             value: self.value,
             complete: true,
             dropped_samples: Vec::new(),
+            culled: self.culled,
         };
         for sample in &self.samples {
             e.complete &= sample.tree.cut.is_none();
@@ -404,6 +407,15 @@ impl fmt::Display for Explanation {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let [x, y] = self.pixel;
         writeln!(f, "pixel ({x}, {y}): value = sum of the terms below")?;
+        if let Some(CulledTile { x, y, nodes }) = self.culled {
+            let s = if nodes == 1 { "" } else { "s" };
+            writeln!(
+                f,
+                "not traced by the renderer: its tile (columns {}..{}, rows {}..{}) lies outside every box of \
+                 the BVH ({nodes} node{s} tested) and was filled with the background; traced here, its rays miss",
+                x[0], x[1], y[0], y[1]
+            )?;
+        }
         let rows: Vec<(String, String, String)> = self.rows();
         // Only the terms' rows are aligned; headings run across the columns.
         let terms = rows.iter().filter(|r| !r.1.is_empty());

@@ -14,4 +14,4 @@ pub mod pixel;
 
 pub use explain::{Explanation, LightFactors, RayWeight, Term, TermKind, WeightFactor};
 pub use export::{ExportCounts, write_rays_obj};
-pub use pixel::{PixelTrace, SampleChoice, SampleTrace, trace_pixel_samples};
+pub use pixel::{CulledTile, PixelTrace, SampleChoice, SampleTrace, trace_pixel_samples};

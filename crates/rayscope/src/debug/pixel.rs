@@ -11,7 +11,7 @@ use crate::camera::CameraMotion;
 use crate::film::{Film, finite_or_black};
 use crate::math::Color;
 use crate::record::RayTree;
-use crate::render::{sample_time, trace_pixel};
+use crate::render::{TileCulling, sample_time, trace_pixel};
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
 
@@ -35,6 +35,22 @@ pub struct PixelTrace {
     /// [`SampleChoice::All`], bit-identical to [`crate::render::render`]'s film for this
     /// pixel; with [`SampleChoice::One`], that sample's colour (as the film would add it).
     pub value: Color,
+    /// The pixel's tile, when the renderer culls it ([`TileCulling`]): the renderer traced
+    /// none of its camera rays and filled it with the background, which the samples here,
+    /// traced all the same, return as misses.
+    pub culled: Option<CulledTile>,
+}
+
+/// A tile of pixels whose camera rays the renderer did not trace: their frustum meets no box
+/// of the BVH ([`TileCulling`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct CulledTile {
+    /// Its columns, `x[0]..x[1]`.
+    pub x: [u32; 2],
+    /// Its rows, `y[0]..y[1]`.
+    pub y: [u32; 2],
+    /// The BVH nodes the frustum test looked into.
+    pub nodes: u32,
 }
 
 /// One sample of a pixel.
@@ -89,5 +105,10 @@ pub fn trace_pixel_samples(
         samples.push(SampleTrace { index, weight, time, color, dropped: dropped > before, tree });
     }
     let value = film.get(0, 0);
-    PixelTrace { pixel: [x, y], samples, value }
+    let culled = TileCulling::of(scene, settings, camera).and_then(|culling| {
+        let tile = culling.tile(x, y);
+        let test = culling.test(tile);
+        (!test.may_hit).then_some(CulledTile { x: tile.x, y: tile.y, nodes: test.nodes })
+    });
+    PixelTrace { pixel: [x, y], samples, value, culled }
 }

@@ -1,10 +1,12 @@
 //! Geometric primitives and their ray intersection routines.
 
 pub mod aabb;
+pub mod frustum;
 pub mod sphere;
 pub mod triangle;
 
 pub use aabb::Aabb;
+pub use frustum::{DirectionRect, Frustum};
 pub use sphere::Sphere;
 pub use triangle::{TriRay, Triangle};
 

@@ -33,12 +33,13 @@ pub use crate::ray::Ray;
 
 use crate::animation::{AnimationSettings, Shutter};
 use crate::bvh::{
-    BuildParams, BvhStats, LoggedQuery, NoObserver, NodeLog, Primitives, TraversalObserver, WideBox, WideRef,
+    BuildParams, BvhStats, FrustumTest, LoggedQuery, NoObserver, NodeLog, Primitives, TraversalObserver, WideBox,
+    WideRef,
 };
 use crate::camera::{Camera, CameraDesc, CameraMotion};
 use crate::environment::Environment;
 use crate::error::Result;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Frustum};
 use crate::io::file::read_text;
 use crate::math::{Color, Vec2, Vec3A, face_forward};
 use crate::motion::{Interpolation, MotionPath};
@@ -355,6 +356,12 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         self.geometry.intersect(ray, &mut NoObserver)
+    }
+
+    /// Whether a ray inside `frustum` may hit anything (`may_hit` false proves that none
+    /// does): the test rendering skips the traversal of a tile's camera rays by.
+    pub fn frustum_test(&self, frustum: &Frustum) -> FrustumTest {
+        self.geometry.wide.frustum_test(frustum)
     }
 
     /// The closest hits of up to [`crate::bvh::PACKET`] rays (camera rays of

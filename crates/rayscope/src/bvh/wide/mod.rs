@@ -24,6 +24,7 @@
 //! - `stack.rs`: the traversals' fixed stack;
 //! - `traverse.rs`: closest-hit and any-hit traversal, one ray at a time;
 //! - `packet.rs`: closest hits of packets of camera rays that share an origin;
+//! - `frustum.rs`: whether a frustum of rays (a tile's camera rays) may meet any leaf box;
 //! - `shadow.rs`: shadow rays grouped per shading point, answered without a traversal;
 //! - `validate.rs`: the tree's invariants;
 //! - `visits.rs`: what the debugger draws of the tree: the boxes of a level, and the nodes and
@@ -33,6 +34,7 @@
 mod avx;
 mod child;
 mod collapse;
+mod frustum;
 mod kernels;
 mod layout;
 mod packet;
@@ -45,6 +47,7 @@ mod validate;
 mod visits;
 
 pub use child::ChildRef;
+pub use frustum::FrustumTest;
 /// The bound of the wide tree's methods (the widths it is made in: 4, 8 and 16), for code
 /// generic over the width; the node tests it names stay inside the crate.
 #[doc(hidden)]

@@ -8,9 +8,9 @@
 
 use super::packet::{PACKET, PacketHits};
 use super::shadow::Occluders;
-use super::{Bvh8, Bvh16, ChildRef, SimdLevel, WideBox, WideRef};
+use super::{Bvh8, Bvh16, ChildRef, FrustumTest, SimdLevel, WideBox, WideRef};
 use crate::bvh::{Bvh, BvhError, BvhHit, Primitives, TraversalObserver};
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Frustum};
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
@@ -100,6 +100,12 @@ impl WideTree {
     /// [`crate::bvh::WideBvh::validate`]).
     pub fn validate(&self, bin: &Bvh, prim_bounds: &[Aabb]) -> Result<(), BvhError> {
         each!(self, t => t.validate(bin, prim_bounds))
+    }
+
+    /// Whether a ray inside `frustum` may hit a primitive (see
+    /// [`crate::bvh::WideBvh::frustum_test`]).
+    pub fn frustum_test(&self, frustum: &Frustum) -> FrustumTest {
+        each!(self, t => t.frustum_test(frustum))
     }
 
     /// The closest hit along `ray` within its interval.

@@ -1,0 +1,138 @@
+//! A frustum: every ray from one point (the apex) whose direction lies in a rectangle of a
+//! plane in front of it, as the camera rays of a tile of pixels do. It answers one question,
+//! conservatively: may a box hold a point of it? "No" proves that no ray of the frustum meets
+//! anything inside the box, which lets a tile of camera rays that misses every box of the BVH
+//! skip its traversal (Reshetov, Soupikov and Hurley, "Multi-level ray tracing algorithm",
+//! 2005; Benthin and Wald's frustum culling of ray packets).
+
+use crate::geometry::Aabb;
+use crate::math::Vec3A;
+
+/// The rays from `apex` through the rectangle of directions `x * right + y * up + forward`,
+/// `x` and `y` in given intervals: four planes through the apex, each keeping the side the
+/// rectangle is on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frustum {
+    /// The common origin of the rays.
+    apex: Vec3A,
+    /// The side planes' normals, pointing inwards (a point `p` is inside a plane where
+    /// `dot(normal, p - apex) >= 0`): left, right, bottom, top.
+    normals: [Vec3A; 4],
+}
+
+/// The rectangle of directions a [`Frustum`] spans: `x * right + y * up + forward` for `x` in
+/// `x`, `y` in `y` (intervals `[lo, hi]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectionRect {
+    /// The direction of `x = 1` minus `forward`.
+    pub right: Vec3A,
+    /// The direction of `y = 1` minus `forward`.
+    pub up: Vec3A,
+    /// The direction of `x = y = 0`.
+    pub forward: Vec3A,
+    /// The interval of `x`.
+    pub x: [f32; 2],
+    /// The interval of `y`.
+    pub y: [f32; 2],
+}
+
+impl Frustum {
+    /// The frustum of the rays from `apex` through `rect`. Each side plane holds the apex and
+    /// one edge of the rectangle (its normal a cross product of the edge's direction and the
+    /// corner direction it passes through, so `right`, `up` and `forward` need not be
+    /// orthogonal), and is turned to face the rectangle's centre.
+    pub fn new(apex: Vec3A, rect: &DirectionRect) -> Frustum {
+        let DirectionRect { right, up, forward, x, y } = *rect;
+        let centre = 0.5 * (x[0] + x[1]) * right + 0.5 * (y[0] + y[1]) * up + forward;
+        let facing = |n: Vec3A| if n.dot(centre) < 0.0 { -n } else { n };
+        let normals = [
+            facing((x[0] * right + forward).cross(up)),
+            facing((x[1] * right + forward).cross(up)),
+            facing((y[0] * up + forward).cross(right)),
+            facing((y[1] * up + forward).cross(right)),
+        ];
+        Frustum { apex, normals }
+    }
+
+    /// Whether `b` may hold a point of the frustum: false only when the whole box lies
+    /// strictly outside one of the side planes (its corner farthest along the plane's normal
+    /// is behind it). Conservative (a box beside the frustum near a corner of it passes), and
+    /// a box with a NaN or infinite coordinate passes. The caller's margin covers rounding.
+    #[inline]
+    pub fn may_meet(&self, b: &Aabb) -> bool {
+        let lo = b.min - self.apex;
+        let hi = b.max - self.apex;
+        self.normals.iter().all(|&n| {
+            let far = Vec3A::select(n.cmpge(Vec3A::ZERO), hi, lo);
+            // A NaN keeps the box.
+            let d = n.dot(far);
+            d >= 0.0 || d.is_nan()
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn rect(x: [f32; 2], y: [f32; 2]) -> DirectionRect {
+        DirectionRect { right: Vec3A::X, up: Vec3A::Y, forward: -Vec3A::Z, x, y }
+    }
+
+    #[test]
+    fn boxes_inside_beside_and_behind() {
+        let f = Frustum::new(Vec3A::ZERO, &rect([-0.1, 0.1], [-0.1, 0.1]));
+        let cube = |c: Vec3A, r: f32| Aabb { min: c - Vec3A::splat(r), max: c + Vec3A::splat(r) };
+        assert!(f.may_meet(&cube(Vec3A::new(0.0, 0.0, -5.0), 0.1)));
+        // Straddling one side plane.
+        assert!(f.may_meet(&cube(Vec3A::new(0.55, 0.0, -5.0), 0.1)));
+        assert!(!f.may_meet(&cube(Vec3A::new(0.7, 0.0, -5.0), 0.1)));
+        assert!(!f.may_meet(&cube(Vec3A::new(0.0, -0.7, -5.0), 0.1)));
+        // Behind the apex, on the frustum's axis.
+        assert!(!f.may_meet(&cube(Vec3A::new(0.0, 0.0, 5.0), 0.1)));
+        // Around the apex.
+        assert!(f.may_meet(&cube(Vec3A::ZERO, 0.01)));
+        // NaN and infinite boxes are kept.
+        assert!(f.may_meet(&Aabb { min: Vec3A::splat(f32::NAN), max: Vec3A::splat(f32::NAN) }));
+        assert!(f.may_meet(&Aabb { min: Vec3A::splat(-f32::INFINITY), max: Vec3A::splat(f32::INFINITY) }));
+    }
+
+    proptest! {
+        /// A box that a ray of the frustum meets is never culled: rays through random points
+        /// of the rectangle (a skewed basis among them) against boxes around a point of the
+        /// ray, degenerate (flat or point) boxes among them.
+        #[test]
+        fn a_box_on_a_ray_of_the_frustum_is_kept(
+            apex in prop::array::uniform3(-10.0f32..10.0),
+            skew in prop::array::uniform3(-0.5f32..0.5),
+            x0 in -2.0f32..2.0,
+            y0 in -2.0f32..2.0,
+            size in prop::array::uniform2(0.01f32..2.0),
+            s in prop::array::uniform2(0.01f32..=0.99),
+            t in 0.01f32..100.0,
+            r in prop::array::uniform3(0.0f32..1.0),
+            offset in prop::array::uniform3(-1.0f32..=1.0),
+        ) {
+            // Rays strictly inside (the renderer widens its frustums by a pixel for rounding).
+            let (x, y) = ([x0, x0 + size[0]], [y0, y0 + size[1]]);
+            let rect = DirectionRect {
+                right: Vec3A::new(1.0, skew[0], 0.0),
+                up: Vec3A::new(skew[1], 1.0, skew[2]),
+                forward: -Vec3A::Z,
+                x,
+                y,
+            };
+            let apex = Vec3A::from(apex);
+            let f = Frustum::new(apex, &rect);
+            let (px, py) = (x[0] + s[0] * (x[1] - x[0]), y[0] + s[1] * (y[1] - y[0]));
+            let p = apex + t * (px * rect.right + py * rect.up + rect.forward);
+            // A box holding `p` (anywhere in it).
+            let r = Vec3A::from(r);
+            let c = p + r * Vec3A::from(offset);
+            let b = Aabb { min: c - r, max: c + r };
+            prop_assume!(b.min.cmple(p).all() && p.cmple(b.max).all());
+            prop_assert!(f.may_meet(&b), "{b:?} holds {p:?}");
+        }
+    }
+}
