@@ -24,28 +24,33 @@ pub struct HeatScale {
     pub width: usize,
     /// Nodes of that tree.
     pub nodes: usize,
-    /// Camera rays traced (one per pixel, through its centre).
+    /// Camera rays traced (one per pixel, through its centre, but for the culled pixels).
     pub rays: u64,
+    /// Pixels in tiles the renderer culls (`rayscope::render::TileCulling`): no ray traced;
+    /// the map shows each its share of its tile's frustum test.
+    pub culled: u64,
     /// Time the traversals took, in milliseconds.
     pub millis: f64,
 }
 
 impl HeatScale {
-    /// The scale of `aov`, the library's nodes-visited AOV of one camera ray per pixel.
-    pub fn of(aov: &FloatImage, width: usize, nodes: usize, millis: f64) -> HeatScale {
+    /// The scale of `aov`, the library's nodes-visited AOV of one camera ray per pixel, of
+    /// which `culled` pixels were in tiles the renderer culls.
+    pub fn of(aov: &FloatImage, width: usize, nodes: usize, culled: u64, millis: f64) -> HeatScale {
         let (min, max, sum) = aov
             .data
             .iter()
             .fold((f32::INFINITY, 0.0f32, 0.0f64), |(lo, hi, sum), &v| (lo.min(v), hi.max(v), sum + v as f64));
-        let rays = aov.data.len() as u64;
-        let min = if rays == 0 { 0.0 } else { min };
+        let pixels = aov.data.len() as u64;
+        let min = if pixels == 0 { 0.0 } else { min };
         HeatScale {
             min: min as u32,
             max: max as u32,
-            mean: (sum / rays.max(1) as f64) as f32,
+            mean: (sum / pixels.max(1) as f64) as f32,
             width,
             nodes,
-            rays,
+            rays: pixels.saturating_sub(culled),
+            culled,
             millis,
         }
     }
@@ -90,6 +95,14 @@ impl HeatScale {
             self.millis,
             self.mrays_per_s()
         ));
+        if self.culled > 0 {
+            let pixels = self.rays + self.culled;
+            ui.label(format!(
+                "{} ({:.0}%) in tiles whose frustum meets no box: not traced, each its share of the tile's test",
+                counted(self.culled, "pixel", "pixels"),
+                100.0 * self.culled as f64 / pixels as f64
+            ));
+        }
     }
 }
 
@@ -131,8 +144,11 @@ mod tests {
     #[test]
     fn the_scale_runs_from_the_fewest_to_the_most_nodes() {
         let a = aov(&[3.0, 5.0, 11.0, 5.0]);
-        let s = HeatScale::of(&a, 8, 9, 2.0);
+        let s = HeatScale::of(&a, 8, 9, 0, 2.0);
         assert_eq!((s.min, s.max, s.mean, s.rays), (3, 11, 6.0, 4));
+        // Culled pixels count in the scale and the mean, not in the rays traced.
+        let c = HeatScale::of(&aov(&[0.25, 16.0, 32.0, 0.25]), 16, 9, 2, 2.0);
+        assert_eq!((c.min, c.max, c.rays, c.culled), (0, 32, 2, 2));
         assert_eq!((s.position(3.0), s.position(11.0), s.position(7.0)), (0.0, 1.0, 0.5));
         let img = s.image(&a);
         let close = |c: &[f32], want: [f32; 3]| c.iter().zip(want).all(|(c, w)| (c - w).abs() < 1e-6);
@@ -142,7 +158,7 @@ mod tests {
 
     #[test]
     fn a_flat_map_takes_the_middle_colour() {
-        let s = HeatScale::of(&aov(&[8.0; 6]), 8, 9, 1.0);
+        let s = HeatScale::of(&aov(&[8.0; 6]), 8, 9, 0, 1.0);
         assert_eq!((s.min, s.max), (8, 8));
         assert_eq!(s.position(8.0), 0.5);
     }

@@ -12,6 +12,7 @@ use rayscope::camera::CameraMotion;
 use rayscope::film::FloatImage;
 use rayscope::output::{Encoding, to_rgb8};
 use rayscope::progressive::{ImagingMode, Progressive};
+use rayscope::render::TileCulling;
 use rayscope::scene::Scene;
 use rayscope::settings::RenderSettings;
 
@@ -162,7 +163,9 @@ fn heat_frame(job: &RenderJob, pool: &rayon::ThreadPool) -> FrameImage {
     let aov = pool.install(|| render_aov(&job.scene, &job.settings, &job.camera.start, Aov::NodesVisited, &|_| {}));
     let millis = start.elapsed().as_secs_f64() * 1e3;
     let wide = &job.scene.geometry.wide;
-    let scale = HeatScale::of(&aov, wide.width(), wide.node_count(), millis);
+    let culled = TileCulling::of(&job.scene, &job.settings, &CameraMotion::still(job.camera.start))
+        .map_or(0, |c| c.culled_pixels());
+    let scale = HeatScale::of(&aov, wide.width(), wide.node_count(), culled, millis);
     let frame = to_frame(scale.image(&aov), 1, 1, scale.mrays_per_s(), job.generation, true);
     FrameImage { heat: Some(scale), ..frame }
 }

@@ -113,6 +113,13 @@ impl<'a> TileCulling<'a> {
     pub fn test(&self, tile: Tile) -> FrustumTest {
         self.scene.frustum_test(&self.rays.tile_frustum(tile.x, tile.y, self.reach))
     }
+
+    /// Pixels of the image in tiles the renderer culls (whose camera rays it does not trace).
+    pub fn culled_pixels(&self) -> u64 {
+        let [w, h] = self.size;
+        let tiles = (0..h).step_by(TILE_ROWS).flat_map(|y| (0..w).step_by(PACKET).map(move |x| self.tile(x, y)));
+        tiles.filter(|&t| !self.test(t).may_hit).map(|t| u64::from(t.pixels())).sum()
+    }
 }
 
 /// Which samples a pass adds to each pixel.
@@ -611,6 +618,8 @@ fn trace_footprint<S: Sky, R: RayRecorder>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::environment::{Environment, EnvironmentDesc};
+    use crate::material::Texture;
     use crate::scene::{LoadContext, builtin};
     use crate::settings::PixelFilter;
 
@@ -638,13 +647,22 @@ mod tests {
     /// Tiles whose camera rays cannot hit anything, filled without tracing them, give the
     /// films (every sum, count and residual, bit for bit) and the ray counts of tracing every
     /// ray: one sample, then more on the `f64` sums, with each pixel filter (whose samples
-    /// reach past the pixel), an image whose last tiles are cut by its edges, and a scene
-    /// with an environment map (which culls nothing).
+    /// reach past the pixel), an image whose last tiles are cut by its edges, a sphere that
+    /// moves during the exposure (seen by a still camera, whose tiles are culled by the
+    /// sphere's swept box), and a scene with an environment map (which culls nothing).
     #[test]
     fn culled_tiles_render_as_traced_ones() {
         let load = |name| Scene::from_desc(&builtin::scene_desc(name).unwrap(), &LoadContext::default()).unwrap();
-        for name in ["cornell-box", "spheres", "single-triangle", "shading-models"] {
-            let scene = load(name);
+        let mut sky = load("spheres");
+        let texels = (0..32).map(|i| Color::new(i as f32 / 32.0, 0.5, 1.0 - i as f32 / 64.0)).collect();
+        let desc = EnvironmentDesc { path: "sky.exr".into(), intensity: 1.0, rotation: 30.0 };
+        sky.environment = Some(Environment::from_texture(desc, Texture::new(8, 4, texels)).unwrap());
+        let settings = RenderSettings::default();
+        assert!(TileCulling::of(&sky, &settings, &sky.camera_motion()).is_none());
+        let moving = load("cornell-box-motion");
+        assert!(moving.camera_motion().is_still());
+        let scenes = ["cornell-box", "spheres", "single-triangle", "shading-models"].map(|name| (name, load(name)));
+        for (name, scene) in scenes.into_iter().chain([("cornell-box-motion", moving), ("spheres with a sky", sky)]) {
             for filter in [PixelFilter::Box, PixelFilter::Tent, PixelFilter::Gaussian] {
                 let settings = RenderSettings { width: 77, height: 61, filter, ..RenderSettings::default() };
                 let (traced, rays) = passes(&scene, &settings, &[1, 2], Culling::Off);
@@ -673,6 +691,8 @@ mod tests {
         let share = culled.iter().filter(|c| **c).count() as f64 / culled.len() as f64;
         assert!(share > 0.5, "{share}");
         let culling = TileCulling::of(&scene, &settings, &camera).unwrap();
+        // 8 x 8 tiles, none cut at 800 x 800.
+        assert_eq!(culling.culled_pixels(), 64 * culled.iter().filter(|c| **c).count() as u64);
         let centre = culling.tile(settings.width / 2, settings.height / 2);
         assert_eq!(centre, Tile { x: [400, 408], y: [400, 408] });
         assert!(culling.test(centre).may_hit);
