@@ -1,8 +1,9 @@
 //! Arbitrary output variables: per-pixel facts about the first hit of each camera ray (depth,
 //! position, normal, albedo, primitive id, BVH nodes visited), rendered in parallel tiles
 //! beside the colour image. The camera rays go through the BVH as the renderer's do: in
-//! packets of a row's [`PACKET`] neighbouring pixels, and tiles the renderer culls are not
-//! traced, so that the heat map counts what the renderer's traversal does.
+//! packets of a row's [`PACKET`] neighbouring pixels, and the heat map leaves out the tiles the
+//! renderer culls (as the renderer does), so that it counts what the renderer's traversal
+//! does.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -159,6 +160,9 @@ fn pixel_value(
 /// threads, large enough that the rays of a tile stay coherent in cache. A multiple of
 /// [`PACKET`], so that a tile's runs of pixels are the renderer's packets.
 const TILE: u32 = 16;
+
+// A tile's runs are the renderer's packets and culled tiles' rows (`render_aov`).
+const _: () = assert!(TILE.is_multiple_of(PACKET as u32) && TILE.is_multiple_of(crate::render::TILE_ROWS as u32));
 const _: () = assert!((TILE as usize).is_multiple_of(PACKET));
 
 #[derive(Clone, Copy)]

@@ -258,11 +258,14 @@ struct Band {
 /// tasks' worth of rows (50 for 800) to balance two or more threads.
 const BAND_ROWS: usize = 16;
 
-/// Rows of a tile whose camera rays are culled together ([`Pass::tile_culled`]): tiles are
+/// Rows of a tile whose camera rays are culled together ([`TileCulling`]): tiles are
 /// [`PACKET`] pixels wide (a packet's run of a row) and this tall, two to a band. Small
 /// enough to follow a silhouette (on the dragon, 8x8 tiles leave out 70% of the pixels its
 /// rays miss), large enough that the frustum test costs little per pixel.
 pub const TILE_ROWS: usize = 8;
+
+// A band is whole tiles: `Pass::bands` indexes a band's tiles from its first row.
+const _: () = assert!(BAND_ROWS.is_multiple_of(TILE_ROWS));
 
 /// The samples a pixel that has `first` gets in `pass`: `first..` the returned end.
 fn sample_range(first: u32, pass: SamplePass) -> u32 {

@@ -18,8 +18,10 @@ pub trait Sky: Copy + Sync {
 
     /// The colour every missing ray returns, when it does not depend on the ray (rendering
     /// then fills the pixels of a tile whose camera rays cannot hit anything without tracing
-    /// them); `None` where it does.
-    fn uniform(&self, settings: &RenderSettings) -> Option<Color>;
+    /// them); `None` where it does (the default).
+    fn uniform(&self, _settings: &RenderSettings) -> Option<Color> {
+        None
+    }
 }
 
 /// The settings' background colour, the same in every direction.
@@ -48,9 +50,5 @@ impl Sky for &Environment {
             return lookup.radiance;
         }
         self.radiance(ray.dir, settings.texture_filter)
-    }
-
-    fn uniform(&self, _: &RenderSettings) -> Option<Color> {
-        None
     }
 }

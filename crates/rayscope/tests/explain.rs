@@ -269,7 +269,12 @@ fn culled_pixels_say_they_were_not_traced() {
     assert!(tile.nodes >= 1);
     assert!(corner.samples.iter().all(|s| s.tree.rays.iter().all(|r| r.hit.is_none())));
     let text = corner.explain().to_string();
-    assert!(text.contains("not traced by the renderer: its tile (columns 0..8, rows 0..8)"), "{text}");
+    assert!(
+        text.contains(
+            "not traced by the renderer: the frustum of its tile (columns 0..8, rows 0..8) meets no leaf box"
+        ),
+        "{text}"
+    );
     let centre = trace_pixel_samples(&scene, &s, &camera, 400, 400, SampleChoice::All, MAX_RECORDED_RAYS);
     assert!(centre.culled.is_none() && !centre.explain().to_string().contains("not traced"));
 }

@@ -411,8 +411,9 @@ impl fmt::Display for Explanation {
             let s = if nodes == 1 { "" } else { "s" };
             writeln!(
                 f,
-                "not traced by the renderer: its tile (columns {}..{}, rows {}..{}) lies outside every box of \
-                 the BVH ({nodes} node{s} tested) and was filled with the background; traced here, its rays miss",
+                "not traced by the renderer: the frustum of its tile (columns {}..{}, rows {}..{}) meets no leaf \
+                 box of the BVH ({nodes} node{s} tested), so the tile was filled with the background; traced here, \
+                 its rays miss",
                 x[0], x[1], y[0], y[1]
             )?;
         }
