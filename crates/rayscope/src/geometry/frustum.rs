@@ -55,19 +55,25 @@ impl Frustum {
     }
 
     /// Whether `b` may hold a point of the frustum: false only when the whole box lies
-    /// strictly outside one of the side planes (its corner farthest along the plane's normal
-    /// is behind it). Conservative (a box beside the frustum near a corner of it passes), and
-    /// a NaN, or an infinity on the side the far corner takes, keeps the box. The caller's
-    /// margin covers rounding.
+    /// outside one of the side planes (its corner farthest along the plane's normal is
+    /// behind it) by more than the rounding of the test. Conservative (a box beside the
+    /// frustum near a corner of it passes), and a NaN, or an infinity on the side the far
+    /// corner takes, keeps the box. The caller's margin covers the rounding of the rays'
+    /// directions.
     #[inline]
     pub fn may_meet(&self, b: &Aabb) -> bool {
         let lo = b.min - self.apex;
         let hi = b.max - self.apex;
+        // `b - apex` is rounded to 2^-24 of the larger magnitude: far from the world's origin
+        // that error can exceed the caller's angular margin at a short distance, so a plane
+        // keeps a box behind it by up to 2^-20 of the coordinates' scale.
+        let scale = self.apex.abs().max(b.min.abs()).max(b.max.abs()).max_element() * (1.0 / 1_048_576.0);
         self.normals.iter().all(|&n| {
             let far = Vec3A::select(n.cmpge(Vec3A::ZERO), hi, lo);
-            // A NaN keeps the box.
-            let d = n.dot(far);
-            d >= 0.0 || d.is_nan()
+            // Kept unless surely behind: a NaN (of the box, or of an infinite scale times a
+            // zero normal) keeps it.
+            let behind = n.dot(far) < -scale * n.abs().element_sum();
+            !behind
         })
     }
 }
@@ -94,6 +100,14 @@ mod tests {
         assert!(!f.may_meet(&cube(Vec3A::new(0.0, 0.0, 5.0), 0.1)));
         // Around the apex.
         assert!(f.may_meet(&cube(Vec3A::ZERO, 0.01)));
+        // Far from the world's origin (where a float's step is 1/16), a box that touches a
+        // side plane a little beyond, as rounded, is kept; one well outside is not.
+        let far = Frustum::new(Vec3A::new(1.0e6, 1.0e6, 0.0), &rect([-0.1, 0.1], [-0.1, 0.1]));
+        let x = |dx: f32| 1.0e6 + dx;
+        let touching = Aabb { min: Vec3A::new(x(0.53), 1.0e6 - 0.1, -5.1), max: Vec3A::new(x(0.6), 1.0e6, -4.9) };
+        assert!(far.may_meet(&touching));
+        let outside = Aabb { min: Vec3A::new(x(3.0), 1.0e6 - 0.1, -5.1), max: Vec3A::new(x(3.5), 1.0e6, -4.9) };
+        assert!(!far.may_meet(&outside));
         // NaN and infinite boxes are kept.
         assert!(f.may_meet(&Aabb { min: Vec3A::splat(f32::NAN), max: Vec3A::splat(f32::NAN) }));
         assert!(f.may_meet(&Aabb { min: Vec3A::splat(-f32::INFINITY), max: Vec3A::splat(f32::INFINITY) }));
