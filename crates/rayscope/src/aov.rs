@@ -76,14 +76,10 @@ pub fn render_aov(
         if aov == Aov::MipLevel {
             return (x0..x1).map(|x| [mip_level(scene, &trilinear, &still, x, y), 0.0, 0.0]).collect();
         }
-        if let Some(culling) = &culling {
-            // The runs of `per_tile` are the renderer's: one tile's row.
-            let tile = culling.tile(x0, y);
-            let test = culling.test(tile);
-            if !test.may_hit {
-                let share = width * test.nodes as f32 / tile.pixels() as f32;
-                return vec![[share, 0.0, 0.0]; (x1 - x0) as usize];
-            }
+        // The runs of `per_tile` are the renderer's: one tile's row.
+        if let Some((tile, test)) = culling.as_ref().and_then(|c| c.culled_tile(x0, y)) {
+            let share = width * test.nodes as f32 / tile.pixels() as f32;
+            return vec![[share, 0.0, 0.0]; (x1 - x0) as usize];
         }
         let run: Vec<_> = (x0..x1).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
         let mut stats = [TraversalStats::default(); PACKET];

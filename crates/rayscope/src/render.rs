@@ -92,13 +92,12 @@ impl<'a> TileCulling<'a> {
     /// rendering traces every camera ray (a moving camera, a lens, an environment map).
     pub fn of(scene: &'a Scene, settings: &RenderSettings, camera: &CameraMotion) -> Option<TileCulling<'a>> {
         let pinhole = camera.is_still() && ThinLens::new(settings, &camera.start).is_none();
-        (pinhole && scene.environment.is_none()).then(|| {
-            TileCulling::new(scene, settings, RayGenerator::new(&camera.start, settings.width, settings.height))
+        (pinhole && scene.environment.is_none()).then(|| TileCulling {
+            scene,
+            rays: RayGenerator::new(&camera.start, settings.width, settings.height),
+            reach: settings.filter.radius(),
+            size: [settings.width, settings.height],
         })
-    }
-
-    fn new(scene: &'a Scene, settings: &RenderSettings, rays: RayGenerator) -> TileCulling<'a> {
-        TileCulling { scene, rays, reach: settings.filter.radius(), size: [settings.width, settings.height] }
     }
 
     /// The tile that holds pixel `(x, y)`.
@@ -114,10 +113,23 @@ impl<'a> TileCulling<'a> {
         self.scene.frustum_test(&self.rays.tile_frustum(tile.x, tile.y, self.reach))
     }
 
+    /// The tile that holds pixel `(x, y)` and its frustum test, when the renderer culls it.
+    pub fn culled_tile(&self, x: u32, y: u32) -> Option<(Tile, FrustumTest)> {
+        let tile = self.tile(x, y);
+        let test = self.test(tile);
+        (!test.may_hit).then_some((tile, test))
+    }
+
+    /// The tiles of rows `y[0]..y[1]` (`y[0]` a multiple of [`TILE_ROWS`]), by tile row then
+    /// column.
+    fn tiles(&self, y: [u32; 2]) -> impl Iterator<Item = Tile> + '_ {
+        let w = self.size[0];
+        (y[0]..y[1]).step_by(TILE_ROWS).flat_map(move |ty| (0..w).step_by(PACKET).map(move |tx| self.tile(tx, ty)))
+    }
+
     /// Pixels of the image in tiles the renderer culls (whose camera rays it does not trace).
     pub fn culled_pixels(&self) -> u64 {
-        let [w, h] = self.size;
-        let tiles = (0..h).step_by(TILE_ROWS).flat_map(|y| (0..w).step_by(PACKET).map(move |x| self.tile(x, y)));
+        let tiles = self.tiles([0, self.size[1]]);
         tiles.filter(|&t| !self.test(t).may_hit).map(|t| u64::from(t.pixels())).sum()
     }
 }
@@ -260,7 +272,7 @@ const BAND_ROWS: usize = 16;
 
 /// Rows of a tile whose camera rays are culled together ([`TileCulling`]): tiles are
 /// [`PACKET`] pixels wide (a packet's run of a row) and this tall, two to a band. Small
-/// enough to follow a silhouette (on the dragon, 8x8 tiles leave out 70% of the pixels its
+/// enough to follow a silhouette (on the dragon, 8x8 tiles leave out 95% of the pixels its
 /// rays miss), large enough that the frustum test costs little per pixel.
 pub const TILE_ROWS: usize = 8;
 
@@ -356,11 +368,11 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 let mut residuals = Vec::new();
                 let y0 = b * BAND_ROWS;
                 let culled = self.culled_tiles(y0, sums.len() / w);
+                let tiles = w.div_ceil(PACKET);
                 let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
                 for (row, (sums, counts)) in rows.enumerate() {
                     let y = (y0 + row) as u32;
                     let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
-                    let tiles = w.div_ceil(PACKET);
                     for (run, (sums, counts)) in runs.enumerate() {
                         let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut residuals };
                         if let Some((_, miss)) = self.cull.filter(|_| culled[row / TILE_ROWS * tiles + run]) {
@@ -394,9 +406,11 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         // The lens of the pose at shutter open: a moving camera keeps its focus distance.
         let lens = ThinLens::new(integrator.settings, &camera.start);
         let packets = camera.is_still() && lens.is_none();
-        let culling =
-            still.filter(|_| packets).map(|&rays| TileCulling::new(integrator.scene, integrator.settings, rays));
-        let cull = culling.zip(integrator.sky.uniform(integrator.settings));
+        // The one rule of `TileCulling::of` (which the debugger and the heat map ask too),
+        // for the passes that have a still camera's generator (not the debugger's own).
+        let (scene, settings) = (integrator.scene, integrator.settings);
+        let culling = still.and_then(|_| TileCulling::of(scene, settings, camera));
+        let cull = culling.zip(integrator.sky.uniform(settings));
         Pass { integrator, camera, still, lens, packets, cull, pass }
     }
 
@@ -405,14 +419,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// pass does not cull).
     fn culled_tiles(&self, y0: usize, rows: usize) -> Vec<bool> {
         let Some((culling, _)) = &self.cull else { return Vec::new() };
-        let w = self.integrator.settings.width as usize;
-        let mut culled = Vec::with_capacity(rows.div_ceil(TILE_ROWS) * w.div_ceil(PACKET));
-        for ty in (y0..y0 + rows).step_by(TILE_ROWS) {
-            for tx in (0..w).step_by(PACKET) {
-                culled.push(!culling.test(culling.tile(tx as u32, ty as u32)).may_hit);
-            }
-        }
-        culled
+        culling.tiles([y0 as u32, (y0 + rows) as u32]).map(|t| !culling.test(t).may_hit).collect()
     }
 
     /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,

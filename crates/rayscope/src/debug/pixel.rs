@@ -105,10 +105,8 @@ pub fn trace_pixel_samples(
         samples.push(SampleTrace { index, weight, time, color, dropped: dropped > before, tree });
     }
     let value = film.get(0, 0);
-    let culled = TileCulling::of(scene, settings, camera).and_then(|culling| {
-        let tile = culling.tile(x, y);
-        let test = culling.test(tile);
-        (!test.may_hit).then_some(CulledTile { x: tile.x, y: tile.y, nodes: test.nodes })
-    });
+    let culled = TileCulling::of(scene, settings, camera)
+        .and_then(|culling| culling.culled_tile(x, y))
+        .map(|(tile, test)| CulledTile { x: tile.x, y: tile.y, nodes: test.nodes });
     PixelTrace { pixel: [x, y], samples, value, culled }
 }
