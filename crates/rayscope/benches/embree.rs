@@ -16,6 +16,8 @@
 //! coherent flag for camera rays, its default (medium quality) build on the same number of
 //! threads.
 
+mod common;
+
 use std::ffi::CString;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -238,47 +240,6 @@ fn ftz_daz() {
     }
 }
 
-struct Rng(u64);
-impl Rng {
-    fn f32(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-    }
-}
-
-fn camera_rays(scene: &Scene) -> Vec<Ray> {
-    let cam = scene.camera();
-    (0..800u32).flat_map(|y| (0..800u32).map(move |x| (x, y))).map(|(x, y)| cam.pixel_ray(x, y, 800, 800)).collect()
-}
-
-fn incoherent_rays(scene: &Scene, n: usize) -> Vec<Ray> {
-    let b = scene.geometry.bvh.nodes[0].bounds();
-    let mut rng = Rng(42);
-    (0..n)
-        .map(|_| {
-            let o = b.min + (b.max - b.min) * Vec3A::new(rng.f32(), rng.f32(), rng.f32());
-            let d = loop {
-                let v = Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - Vec3A::ONE;
-                if v.length_squared() > 1e-3 && v.length_squared() <= 1.0 {
-                    break v.normalize();
-                }
-            };
-            Ray::new(o, d)
-        })
-        .collect()
-}
-
-fn shadow_rays(scene: &Scene, cam: &[Ray]) -> Vec<Ray> {
-    let light = Vec3A::new(-1.0, 1.0, -1.0);
-    cam.iter()
-        .filter_map(|r| scene.intersect(r).map(|h| (r, h)))
-        .map(|(r, h)| {
-            let si = scene.surface(r, &h, &Default::default());
-            Ray::spawn_to(si.point, si.geo_normal, light, 0.0)
-        })
-        .collect()
-}
-
 /// Throughput of `ours` and of `theirs` over `rays` on `pool`, in Mrays/s: the fastest of
 /// REPS passes each, the two alternating so that both see the same state of a shared machine.
 fn compare<F, G>(pool: &rayon::ThreadPool, rays: &[Ray], ours: F, theirs: G) -> (f64, f64)
@@ -333,9 +294,9 @@ fn main() {
     println!("|---|---:|---:|---|---|---|---|---|---|");
     for soup in &soups {
         let scene = ours(soup);
-        let cam = camera_rays(&scene);
-        let inc = incoherent_rays(&scene, cam.len());
-        let shadow = shadow_rays(&scene, &cam);
+        let cam = common::camera_rays(&scene);
+        let inc = common::incoherent_rays(&scene, cam.len());
+        let shadow = common::shadow_rays(&scene, &cam);
         for threads in [1, 2] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.broadcast(|_| ftz_daz());

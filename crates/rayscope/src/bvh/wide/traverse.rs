@@ -344,14 +344,39 @@ where
                 hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
             }
         } else {
-            let LeafRange { start, count } = self.ranges[leaf.range_index()];
-            for slot in start..start + count {
-                obs.prim_tested();
-                if let Some(hit) = prims.intersect(slot, one.ray, t_min, *t_max) {
-                    closer(BvhHit { slot, hit }, t_max, best);
-                }
+            self.range_closest(leaf, one.ray, prims, obs, t_max, best);
+        }
+    }
+
+    /// [`WideBvh::leaf_closest`] for a range leaf (spheres, or triangles the packing left
+    /// out), out of line: inlined, the primitives' own per-ray set-up (the triangle test's
+    /// shear, a sphere's `|d|^2`) was hoisted out of the traversal loop and paid by every ray,
+    /// most of which never meet a range leaf.
+    #[inline(never)]
+    fn range_closest<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        leaf: ChildRef,
+        ray: &Ray,
+        prims: &P,
+        obs: &mut O,
+        t_max: &mut f32,
+        best: &mut Option<BvhHit>,
+    ) {
+        let LeafRange { start, count } = self.ranges[leaf.range_index()];
+        for slot in start..start + count {
+            obs.prim_tested();
+            if let Some(hit) = prims.intersect(slot, ray, ray.t.min, *t_max) {
+                closer(BvhHit { slot, hit }, t_max, best);
             }
         }
+    }
+
+    /// Whether a primitive of range leaf `leaf` blocks `ray`: out of line, as
+    /// [`WideBvh::range_closest`] is.
+    #[inline(never)]
+    fn range_occluded<P: Primitives + ?Sized>(&self, leaf: ChildRef, ray: &Ray, prims: &P) -> bool {
+        let LeafRange { start, count } = self.ranges[leaf.range_index()];
+        (start..start + count).any(|slot| prims.intersect(slot, ray, ray.t.min, ray.t.max).is_some())
     }
 
     /// Whether anything blocks `ray` within its interval; stops at the first hit found.
@@ -462,11 +487,8 @@ where
                 }
             } else if current.is_leaf() {
                 obs.entered_leaf(current);
-                let LeafRange { start, count } = self.ranges[current.range_index()];
-                for slot in start..start + count {
-                    if prims.intersect(slot, ray, t_min, t_max).is_some() {
-                        return true;
-                    }
+                if self.range_occluded(current, ray, prims) {
+                    return true;
                 }
             } else {
                 let node = &self.nodes[current.node_index() as usize];
