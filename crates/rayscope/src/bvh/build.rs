@@ -370,28 +370,46 @@ const EMPTY_BIN: Bin = Bin { bounds: Aabb::EMPTY, count: 0 };
 pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, nb: usize) -> Bins<N> {
     if prims.len() > PARALLEL_PASS {
         use rayon::prelude::*;
-        return prims.par_chunks(PASS_CHUNK).map(|c| fill_bins::<N>(c, lo, scale, nb)).reduce(
-            || [[EMPTY_BIN; N]; 3],
-            |mut a, b| {
-                for (a, b) in a.iter_mut().flatten().zip(b.iter().flatten()) {
-                    a.bounds = a.bounds.union(b.bounds);
-                    a.count += b.count;
-                }
-                a
-            },
-        );
+        return prims
+            .par_chunks(PASS_CHUNK)
+            .map(|c| fill_bins::<N>(c, lo, scale, nb))
+            .reduce(|| [[EMPTY_BIN; N]; 3], merge_bins);
     }
-    let mut bins = [[EMPTY_BIN; N]; 3];
+    // Two sets of bins, for the even and the odd primitives, merged at the end: neighbours in
+    // a mesh's order often land in the same bins, and with one set each primitive's update
+    // waited for the previous one's store to that bin. Unions and counts are exact, so the
+    // bins are the same whatever the grouping.
+    let mut pair = [[[EMPTY_BIN; N]; 3]; 2];
     let top = Vec3A::splat((nb - 1) as f32);
-    for p in prims {
+    let add = |bins: &mut Bins<N>, p: &BuildPrim| {
         let idx = bin_indices((p.centroid() - lo) * scale, top);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             let b = &mut axis_bins[idx[axis] as usize];
             b.bounds = b.bounds.union(p.bounds);
             b.count += 1;
         }
+    };
+    let (even, odd) = pair.split_at_mut(1);
+    let mut two = prims.chunks_exact(2);
+    for p in &mut two {
+        add(&mut even[0], &p[0]);
+        add(&mut odd[0], &p[1]);
     }
-    bins
+    if let [p] = two.remainder() {
+        add(&mut even[0], p);
+    }
+    let [even, odd] = pair;
+    merge_bins(even, odd)
+}
+
+/// The bins of two sets of primitives binned alike: unions and sums, exact in any order.
+#[inline(always)]
+fn merge_bins<const N: usize>(mut a: Bins<N>, b: Bins<N>) -> Bins<N> {
+    for (a, b) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+        a.bounds = a.bounds.union(b.bounds);
+        a.count += b.count;
+    }
+    a
 }
 
 /// The cheapest binned SAH split over the three axes, or `None` when all centroids coincide.
