@@ -272,10 +272,7 @@ where
 }
 
 fn main() {
-    let assets = std::env::var_os("RAYSCOPE_ASSETS")
-        .map(PathBuf::from)
-        .or_else(|| Some(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")))
-        .filter(|p| p.join("dragon.obj").is_file());
+    let assets = common::assets();
     if assets.is_none() {
         eprintln!("NOTICE: the course's scene files are absent (set RAYSCOPE_ASSETS); only the procedural mesh runs");
     }

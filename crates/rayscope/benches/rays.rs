@@ -11,7 +11,6 @@
 //! `shadow`: any-hit rays from each camera hit to a point at (-1, 1, -1), `incoherent`: as many
 //! rays from random points of the scene's box in random directions) and REPS (default 30).
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 mod common;
@@ -25,11 +24,8 @@ fn main() {
     let name = args.first().map_or("teapot", String::as_str);
     let kind = args.get(1).map_or("single", String::as_str);
     let reps: usize = args.get(2).map_or(30, |s| s.parse().expect("REPS is a number"));
-    let assets = std::env::var_os("RAYSCOPE_ASSETS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes"));
     let desc = builtin::scene_desc(name).expect("a built-in scene");
-    let scene = match Scene::from_desc(&desc, &LoadContext { assets: Some(assets), ..LoadContext::default() }) {
+    let scene = match Scene::from_desc(&desc, &LoadContext { assets: common::assets(), ..LoadContext::default() }) {
         Ok(scene) => scene,
         Err(e) => {
             eprintln!("NOTICE: {name} did not load ({e}); set RAYSCOPE_ASSETS to the course's scene folder");

@@ -159,7 +159,6 @@ const TILE: u32 = 16;
 
 // A tile's runs are the renderer's packets and culled tiles' rows (`render_aov`).
 const _: () = assert!(TILE.is_multiple_of(PACKET as u32) && TILE.is_multiple_of(crate::render::TILE_ROWS as u32));
-const _: () = assert!((TILE as usize).is_multiple_of(PACKET));
 
 #[derive(Clone, Copy)]
 struct Tile {

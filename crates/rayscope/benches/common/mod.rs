@@ -1,8 +1,19 @@
 //! The rays the ray benchmarks trace (`embree.rs`, `rays.rs`), made the same way in both.
 
+use std::path::PathBuf;
+
 use rayscope::math::Vec3A;
 use rayscope::ray::Ray;
 use rayscope::scene::Scene;
+
+/// The course's scene folder: `RAYSCOPE_ASSETS`, else `../shared/scenes` beside the
+/// repository; `None` where it holds no `dragon.obj`.
+pub fn assets() -> Option<PathBuf> {
+    std::env::var_os("RAYSCOPE_ASSETS")
+        .map(PathBuf::from)
+        .or_else(|| Some(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes")))
+        .filter(|p| p.join("dragon.obj").is_file())
+}
 
 /// A small deterministic generator (a 64-bit LCG's high bits).
 struct Rng(u64);

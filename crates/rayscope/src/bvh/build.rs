@@ -379,7 +379,7 @@ pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: V
     // a mesh's order often land in the same bins, and with one set each primitive's update
     // waited for the previous one's store to that bin. Unions and counts are exact, so the
     // bins are the same whatever the grouping.
-    let mut pair = [[[EMPTY_BIN; N]; 3]; 2];
+    let (mut even, mut odd) = ([[EMPTY_BIN; N]; 3], [[EMPTY_BIN; N]; 3]);
     let top = Vec3A::splat((nb - 1) as f32);
     let add = |bins: &mut Bins<N>, p: &BuildPrim| {
         let idx = bin_indices((p.centroid() - lo) * scale, top);
@@ -389,16 +389,14 @@ pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: V
             b.count += 1;
         }
     };
-    let (even, odd) = pair.split_at_mut(1);
     let mut two = prims.chunks_exact(2);
     for p in &mut two {
-        add(&mut even[0], &p[0]);
-        add(&mut odd[0], &p[1]);
+        add(&mut even, &p[0]);
+        add(&mut odd, &p[1]);
     }
     if let [p] = two.remainder() {
-        add(&mut even[0], p);
+        add(&mut even, p);
     }
-    let [even, odd] = pair;
     merge_bins(even, odd)
 }
 

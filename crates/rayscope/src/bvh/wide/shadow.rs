@@ -15,7 +15,7 @@ use super::layout::{EMPTY, LeafRange, Tri4};
 #[cfg(target_arch = "x86_64")]
 use super::simd::Avx2;
 use super::stack::Stack;
-use super::traverse::ray_is_finite;
+use super::traverse::{range_occluded, ray_is_finite};
 use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{NoObserver, Primitives, TraversalObserver};
 use crate::geometry::aabb::safe_inv_dir;
@@ -282,7 +282,7 @@ impl Occluders {
         for (b, r) in self.boxes[..self.leaves].iter().zip(&self.ranges[..self.leaves]) {
             // The traversal's own box test, so the same leaves are opened.
             if b.hit_distance(ray.origin, inv, t_min, t_max.min(f32::MAX)) != f32::INFINITY
-                && (r.start..r.start + r.count).any(|slot| prims.intersect(slot, ray, t_min, t_max).is_some())
+                && range_occluded(*r, ray, prims)
             {
                 return true;
             }

@@ -66,6 +66,15 @@ fn closer(hit: BvhHit, t_max: &mut f32, best: &mut Option<BvhHit>) {
     }
 }
 
+/// Whether a primitive of `range` blocks `ray` within its interval: out of line, as
+/// [`WideBvh::range_closest`] is (the any-hit traversal's range leaves and the shadow groups'
+/// leaves share it).
+#[inline(never)]
+pub(super) fn range_occluded<P: Primitives + ?Sized>(range: LeafRange, ray: &Ray, prims: &P) -> bool {
+    let LeafRange { start, count } = range;
+    (start..start + count).any(|slot| prims.intersect(slot, ray, ray.t.min, ray.t.max).is_some())
+}
+
 /// Sort traversal entries farthest first by their entry distance `near` (insertion sort: at
 /// most eight); single rays and packets both order their children with it.
 #[inline(always)]
@@ -371,14 +380,6 @@ where
         }
     }
 
-    /// Whether a primitive of range leaf `leaf` blocks `ray`: out of line, as
-    /// [`WideBvh::range_closest`] is.
-    #[inline(never)]
-    fn range_occluded<P: Primitives + ?Sized>(&self, leaf: ChildRef, ray: &Ray, prims: &P) -> bool {
-        let LeafRange { start, count } = self.ranges[leaf.range_index()];
-        (start..start + count).any(|slot| prims.intersect(slot, ray, ray.t.min, ray.t.max).is_some())
-    }
-
     /// Whether anything blocks `ray` within its interval; stops at the first hit found.
     #[inline]
     pub fn occluded<P: Primitives + ?Sized>(&self, ray: &Ray, prims: &P) -> bool {
@@ -487,7 +488,7 @@ where
                 }
             } else if current.is_leaf() {
                 obs.entered_leaf(current);
-                if self.range_occluded(current, ray, prims) {
+                if range_occluded(self.ranges[current.range_index()], ray, prims) {
                     return true;
                 }
             } else {
