@@ -148,6 +148,11 @@ fn bad_input_gives_clear_errors() {
     fails_with(d, &["render", "unknown.toml", "-o", "o.png"], &["unknown.toml:2", "widht"]);
     fails_with(d, &["render", "missing.toml", "-o", "o.png"], &["missing.toml"]);
     fails_with(d, &["render", "no-such-scene", "-o", "o.png"], &["unknown scene", "cornell-box"]);
+    // A path that names no format read is refused as such (not looked up as a scene's name),
+    // without reading it.
+    for path in ["/etc/passwd", "/dev/zero", "model.stl", "./cornell-box"] {
+        fails_with(d, &["render", path, "-o", "o.png"], &[path, "not a scene rayscope reads", ".toml", "cornell-box"]);
+    }
     fails_with(d, &["render", "dragon", "-o", "o.png", "--assets", "nowhere"], &["dragon.obj", "--assets"]);
     fails_with(d, &["debug", "--pixel", "1,1", "--sample", "1"], &["has 1 sample (--spp)"]);
     fails_with(d, &["render", "-o", "o.png", "--width", "0"], &["out of range"]);

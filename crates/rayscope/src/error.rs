@@ -81,6 +81,18 @@ pub enum Error {
         /// The names that exist, comma separated.
         known: String,
     },
+    /// A path given as the scene names no format rayscope reads (and is not a built-in scene's
+    /// name either: those have no extension and no folder).
+    #[error(
+        "{path}: not a scene rayscope reads: give a .toml scene file, a .obj, .ply, .gltf or .glb \
+         mesh, or a built-in scene's name ({known})"
+    )]
+    UnsupportedScene {
+        /// The path given.
+        path: PathBuf,
+        /// The built-in scenes' names, comma separated.
+        known: String,
+    },
     /// A setting or scene value is out of its range.
     #[error("{0}")]
     Invalid(String),

@@ -174,11 +174,13 @@ pub fn scene_desc(name: &str) -> Result<SceneDesc> {
             vec![],
             vec![point(-1.0, 1.5, -1.0)],
         ),
-        _ => {
-            let known = BUILTINS.iter().map(|b| b.name).collect::<Vec<_>>().join(", ");
-            return Err(Error::UnknownScene { name: name.to_string(), known });
-        }
+        _ => return Err(Error::UnknownScene { name: name.to_string(), known: builtin_names() }),
     })
+}
+
+/// The built-in scenes' names, comma separated (for error messages).
+pub fn builtin_names() -> String {
+    BUILTINS.iter().map(|b| b.name).collect::<Vec<_>>().join(", ")
 }
 
 /// A sphere in the Cornell box moving along a closed Catmull-Rom loop of five keys (the last
