@@ -179,11 +179,6 @@ pub struct Scene {
     pub outline: Vec<String>,
 }
 
-/// The error for `path`, given as a scene, whose format rayscope does not read.
-fn not_a_scene(path: &Path) -> Error {
-    Error::UnsupportedScene { path: path.to_path_buf(), known: builtin::builtin_names() }
-}
-
 impl Scene {
     /// Load a built-in scene by name, a `.toml` scene file, or a bare `.obj`, `.ply`, `.gltf`
     /// or `.glb` mesh (normalised, lit by the course's point light at (-1, 1, -1); a glTF
@@ -199,9 +194,10 @@ impl Scene {
             Some("obj" | "ply" | "gltf" | "glb") => (SceneDesc::for_mesh_file(path)?, None),
             // A built-in scene's name has no extension and no folder: anything else is a path
             // to a file of some other kind (or none), not read as a scene's name.
-            Some(_) => return Err(not_a_scene(path)),
-            None if spec.contains('/') || spec.contains(std::path::MAIN_SEPARATOR) => return Err(not_a_scene(path)),
-            None => (builtin::scene_desc(spec)?, None),
+            e if e.is_some() || spec.contains('/') || spec.contains(std::path::MAIN_SEPARATOR) => {
+                return Err(Error::UnsupportedScene { path: path.to_path_buf(), known: builtin::builtin_names() });
+            }
+            _ => (builtin::scene_desc(spec)?, None),
         };
         let ctx =
             LoadContext { base_dir: base.unwrap_or_else(|| PathBuf::from(".")), assets: assets.map(Path::to_path_buf) };
