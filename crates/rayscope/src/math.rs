@@ -1,6 +1,6 @@
 //! Math types: glam's SIMD vectors, a linear RGB colour, and small helpers.
 
-pub use glam::{Mat3, Quat, Vec2, Vec3, Vec3A};
+pub use glam::{Mat3, Quat, Vec2, Vec3, Vec3A, Vec4};
 
 /// Linear RGB colour. Values are not clamped: the film keeps them as they are.
 pub type Color = Vec3;

@@ -4,7 +4,7 @@ use rayon::join;
 
 use super::{Bvh, BvhNode, MAX_DEPTH};
 use crate::geometry::Aabb;
-use crate::math::Vec3A;
+use crate::math::{Vec3A, Vec4};
 
 /// How the BVH is built.
 #[derive(Clone, Debug)]
@@ -73,28 +73,57 @@ impl Default for BuildParams {
     }
 }
 
-/// A primitive while the tree is built: its box, its box's centre (needed by every pass, so
-/// stored) and its index, packed in 48 bytes (a `Vec3A` centre padded the struct to 64: a
-/// quarter more memory for each of the passes over all primitives to stream through).
+/// A primitive while the tree is built: its box and its index, packed in 32 bytes, the box's
+/// corners as the `xyz` of two vectors and the index in their `w` lanes, which a box leaves
+/// unused. Every pass over the primitives streams them (at the top of a big tree, from
+/// memory): a separate centre and index made them 48 bytes, and the centre is two exact
+/// operations away (the same bits as [`Aabb::center`]).
+///
+/// | field | `xyz`          | `w`                                      |
+/// |-------|----------------|------------------------------------------|
+/// | `lo`  | the box's min  | the index's low 16 bits, as a whole float |
+/// | `hi`  | the box's max  | its high 16 bits, as a whole float        |
+///
+/// The halves are stored as whole numbers below 2^16, exact in an `f32` and never subnormal
+/// or NaN: the `w` lanes ride along in the boxes' unions and centres, and subnormal values
+/// there would slow the arithmetic on some processors.
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
 pub(super) struct BuildPrim {
-    bounds: Aabb,
-    center: [f32; 3],
-    index: u32,
+    lo: Vec4,
+    hi: Vec4,
 }
 
-const _: () = assert!(std::mem::size_of::<BuildPrim>() == 48);
+const _: () = assert!(std::mem::size_of::<BuildPrim>() == 32);
 
 impl BuildPrim {
     #[inline(always)]
     pub(super) fn new(bounds: Aabb, index: u32) -> BuildPrim {
-        BuildPrim { bounds, center: bounds.center().to_array(), index }
+        BuildPrim { lo: bounds.min.extend((index & 0xffff) as f32), hi: bounds.max.extend((index >> 16) as f32) }
     }
 
+    /// Its box (the `w` lanes are not part of it).
+    #[inline(always)]
+    pub(super) fn bounds(&self) -> Aabb {
+        Aabb { min: Vec3A::from_vec4(self.lo), max: Vec3A::from_vec4(self.hi) }
+    }
+
+    /// Its index.
+    #[inline(always)]
+    pub(super) fn index(&self) -> u32 {
+        self.lo.w as u32 | (self.hi.w as u32) << 16
+    }
+
+    /// Its box's centre: [`Aabb::center`]'s arithmetic.
     #[inline(always)]
     fn centroid(&self) -> Vec3A {
-        Vec3A::from_array(self.center)
+        Vec3A::from_vec4(0.5 * (self.lo + self.hi))
+    }
+
+    /// Its box's centre on `axis`, as [`BuildPrim::centroid`] computes it.
+    #[inline(always)]
+    fn centroid_on(&self, axis: usize) -> f32 {
+        0.5 * (self.lo[axis] + self.hi[axis])
     }
 }
 
@@ -116,7 +145,7 @@ impl Bounds {
 
     #[inline(always)]
     fn add(&mut self, p: &BuildPrim) {
-        self.bounds = self.bounds.union(p.bounds);
+        self.bounds = self.bounds.union(p.bounds());
         self.centroids = self.centroids.grow(p.centroid());
     }
 
@@ -156,7 +185,7 @@ impl Bvh {
         } else {
             (0..count).map(prim).collect()
         };
-        prims.retain(|p| p.bounds.is_finite() && !p.bounds.is_empty());
+        prims.retain(|p| p.bounds().is_finite() && !p.bounds().is_empty());
         if prims.is_empty() {
             return Bvh::default();
         }
@@ -171,7 +200,7 @@ impl Bvh {
                 node.start += i as u32;
             }
         }
-        Bvh { nodes, prim_indices: prims.iter().map(|p| p.index).collect() }
+        Bvh { nodes, prim_indices: prims.iter().map(BuildPrim::index).collect() }
     }
 }
 
@@ -312,8 +341,8 @@ pub(super) fn leaf_cost(n: usize, params: &BuildParams) -> f32 {
 fn simple_split(prims: &mut [BuildPrim], b: &Bounds, rule: SplitRule) -> usize {
     if rule == SplitRule::SeedMean {
         let axis = b.bounds.extent().max_position();
-        let mean = prims.iter().map(|p| p.bounds.min[axis] as f64).sum::<f64>() / prims.len() as f64;
-        let mid = partition_by(prims, |p| (p.bounds.min[axis] as f64) < mean);
+        let mean = prims.iter().map(|p| p.bounds().min[axis] as f64).sum::<f64>() / prims.len() as f64;
+        let mid = partition_by(prims, |p| (p.bounds().min[axis] as f64) < mean);
         if mid != 0 && mid != prims.len() {
             return mid;
         }
@@ -395,7 +424,7 @@ fn fill_bins_here<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, 
         let idx = bin_indices((p.centroid() - lo) * scale, top);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
             let b = &mut axis_bins[idx[axis] as usize];
-            b.bounds = b.bounds.union(p.bounds);
+            b.bounds = b.bounds.union(p.bounds());
             b.count += 1;
         }
     };
@@ -547,7 +576,7 @@ fn partition(prims: &mut [BuildPrim], s: &Split) -> usize {
     // `trunc(min(rel, bins - 1)) < s.bin` exactly when `rel < s.bin` (the split axis has
     // extent, so `rel` is never NaN).
     let plane = s.bin as f32;
-    partition_by(prims, |p: &BuildPrim| (p.center[s.axis] - s.lo) * s.scale < plane)
+    partition_by(prims, |p: &BuildPrim| (p.centroid_on(s.axis) - s.lo) * s.scale < plane)
 }
 
 /// Put the primitives that `goes_left` first; returns their number.
@@ -571,6 +600,6 @@ fn partition_by(prims: &mut [BuildPrim], goes_left: impl Fn(&BuildPrim) -> bool)
 fn median_split(prims: &mut [BuildPrim], centroids: &Aabb) -> usize {
     let axis = centroids.extent().max_position();
     let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| a.center[axis].total_cmp(&b.center[axis]));
+    prims.select_nth_unstable_by(mid, |a, b| a.centroid_on(axis).total_cmp(&b.centroid_on(axis)));
     mid
 }
