@@ -5,6 +5,8 @@
 
 use std::path::Path;
 
+use bytemuck::Zeroable;
+
 use crate::error::{Error, Result};
 
 /// Bytes of peak memory (address space) per triangle, loading and building the BVH included:
@@ -46,6 +48,13 @@ impl MeshSize {
         let mut v = Vec::new();
         v.try_reserve_exact(capacity).map_err(|_| self.out_of_memory(path))?;
         Ok(v)
+    }
+
+    /// `len` zeros, from zeroed memory (for a large array, fresh pages that the system zeroes
+    /// as the threads filling them first touch them: writing the zeros took a pass on one
+    /// thread), or the error that the mesh at `path` does not fit.
+    pub fn zeroed<T: Zeroable>(&self, path: &Path, len: usize) -> Result<Vec<T>> {
+        bytemuck::allocation::try_zeroed_slice_box(len).map(Vec::from).map_err(|_| self.out_of_memory(path))
     }
 
     /// The error of the mesh at `path` not fitting.

@@ -12,6 +12,8 @@ use std::path::Path;
 #[cfg(test)]
 use std::path::PathBuf;
 
+use rayon::prelude::*;
+
 use super::duplicates::without_duplicates;
 use super::file::{BUFFER_BYTES, open};
 use super::index_hash::{IndexHash, pack};
@@ -284,7 +286,7 @@ pub(super) fn unify(
 ) -> Result<ObjMesh> {
     let Corners { positions, indices, normals, uvs } = corners;
     let oom = |_| size.out_of_memory(path);
-    let smooth;
+    let mut smooth = Vec::new();
     let (file_normals, normal_indices) = match normals {
         Some(given) => given,
         None => {
@@ -296,8 +298,17 @@ pub(super) fn unify(
     if let Some(shared) = shared_attributes(positions.len(), indices, normal_indices, uvs.map(|(_, t)| t), size, path)?
     {
         // Vertices shared as the file shares them: vertex k is position k.
-        out.normals = size.vec(path, positions.len())?;
-        out.normals.extend(shared.normals.iter().map(|&n| file_normals[n as usize].normalize_or_zero()));
+        match shared.normals {
+            Some(normals) => {
+                out.normals = size.vec(path, positions.len())?;
+                out.normals.par_extend(normals.par_iter().map(|&n| file_normals[n as usize].normalize_or_zero()));
+            }
+            // Position k's smooth normal, normalised again as every vertex's normal is.
+            None => {
+                smooth.par_iter_mut().for_each(|n| *n = n.normalize_or_zero());
+                out.normals = smooth;
+            }
+        }
         if let Some((uvs, _)) = uvs {
             out.uvs = size.vec(path, positions.len())?;
             out.uvs.extend(shared.uvs.iter().map(|&t| uvs[t as usize]));
@@ -336,7 +347,8 @@ pub(super) fn unify(
 
 /// Each position's normal and texture coordinate index.
 struct Shared {
-    normals: Vec<u32>,
+    /// `None`: position k's normal is normal k (smooth normals, made per position).
+    normals: Option<Vec<u32>>,
     uvs: Vec<u32>,
 }
 
@@ -351,32 +363,63 @@ fn shared_attributes(
     size: MeshSize,
     path: &Path,
 ) -> Result<Option<Shared>> {
-    let mut shared = Shared { normals: size.vec(path, count)?, uvs: size.vec(path, uvs.map_or(0, |_| count))? };
+    if uvs.is_none() && std::ptr::eq(positions, normals) {
+        // Normals indexed as the positions are (smooth ones): only the order is to check.
+        let mut next = 0;
+        for &p in positions {
+            if p > next {
+                return Ok(None);
+            }
+            next += u32::from(p == next);
+        }
+        return Ok((next as usize == count).then_some(Shared { normals: None, uvs: Vec::new() }));
+    }
+    let mut shared_normals = size.vec(path, count)?;
+    let mut shared_uvs = size.vec(path, uvs.map_or(0, |_| count))?;
     for (k, &p) in positions.iter().enumerate() {
         let p = p as usize;
         let t = uvs.map(|t| t[k]);
-        if p == shared.normals.len() {
-            shared.normals.push(normals[k]);
-            shared.uvs.extend(t);
-        } else if p > shared.normals.len() || shared.normals[p] != normals[k] || t.is_some_and(|t| shared.uvs[p] != t) {
+        if p == shared_normals.len() {
+            shared_normals.push(normals[k]);
+            shared_uvs.extend(t);
+        } else if p > shared_normals.len() || shared_normals[p] != normals[k] || t.is_some_and(|t| shared_uvs[p] != t) {
             return Ok(None);
         }
     }
-    Ok((shared.normals.len() == count).then_some(shared))
+    Ok((shared_normals.len() == count).then_some(Shared { normals: Some(shared_normals), uvs: shared_uvs }))
 }
 
 /// Area-weighted vertex normals: the sum of the (unnormalised) face normals around a vertex.
+/// On every core, each task summing around its own range of vertices: every task reads
+/// every face's corners, and computes the normals of the faces that touch its range only,
+/// adding them in face order as one pass over the faces would (the same sums, bit for bit,
+/// on any number of threads).
 pub fn smooth_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; positions.len()];
-    for t in indices.chunks_exact(3) {
-        let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
-        let face = (b - a).cross(c - a);
-        for &i in t {
-            n[i as usize] += face;
+    let per_task = positions.len().div_ceil(rayon::current_num_threads()).max(VERTICES_PER_TASK);
+    n.par_chunks_mut(per_task).enumerate().for_each(|(k, sums)| {
+        let (first, len) = ((k * per_task) as u32, sums.len() as u32);
+        for t in indices.chunks_exact(3) {
+            // Corners relative to the range: below it they wrap around, above `len`.
+            let rel = [t[0], t[1], t[2]].map(|i| i.wrapping_sub(first));
+            if rel.iter().all(|&r| r >= len) {
+                continue;
+            }
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+            let face = (b - a).cross(c - a);
+            for r in rel {
+                if r < len {
+                    sums[r as usize] += face;
+                }
+            }
         }
-    }
-    n.iter().map(|v| v.normalize_or_zero()).collect()
+    });
+    n.par_iter_mut().for_each(|v| *v = v.normalize_or_zero());
+    n
 }
+
+/// The fewest vertices [`smooth_normals`] gives a task: each task reads all the faces.
+const VERTICES_PER_TASK: usize = 1 << 16;
 
 /// The statements of the elements faces index: positions, texture coordinates, normals.
 const ELEMENTS: [&str; 3] = ["v", "vt", "vn"];
@@ -608,6 +651,36 @@ mod tests {
         match parse(text) {
             Err(Error::Parse { line, message, .. }) => (line, message),
             other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    /// The normals summed around ranges of vertices on several threads are the bits of one
+    /// pass over the faces (faces in random order, touching several ranges).
+    #[test]
+    fn smooth_normals_on_many_threads_are_one_pass_sums() {
+        let mut seed = 7u64;
+        let mut next = |m: u64| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) % m
+        };
+        let positions: Vec<Vec3> = (0..3 * VERTICES_PER_TASK)
+            .map(|_| Vec3::new(next(1000) as f32, next(1000) as f32, next(1000) as f32) * 1e-3)
+            .collect();
+        let indices: Vec<u32> = (0..6 * positions.len()).map(|_| next(positions.len() as u64) as u32).collect();
+        let mut want = vec![Vec3::ZERO; positions.len()];
+        for t in indices.chunks_exact(3) {
+            let face = (positions[t[1] as usize] - positions[t[0] as usize])
+                .cross(positions[t[2] as usize] - positions[t[0] as usize]);
+            t.iter().for_each(|&i| want[i as usize] += face);
+        }
+        let want: Vec<Vec3> = want.iter().map(|v| v.normalize_or_zero()).collect();
+        for threads in [1, 2, 5] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let got = pool.install(|| smooth_normals(&positions, &indices));
+            assert!(
+                got.iter().zip(&want).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)),
+                "{threads} threads"
+            );
         }
     }
 

@@ -43,6 +43,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{Mesh, Scene, SceneSphere, camera_lens};
@@ -465,10 +466,11 @@ fn load_mesh_source(d: &MeshDesc, ctx: &LoadContext, scene: &str, textures: &mut
         let meshes = meshes
             .into_iter()
             .map(|m| {
+                // On every core: a big mesh's arrays are millions long.
                 let mesh = Mesh {
                     name: m.name,
-                    positions: m.positions.into_iter().map(Vec3A::from).collect(),
-                    normals: m.normals.into_iter().map(Vec3A::from).collect(),
+                    positions: m.positions.into_par_iter().map(Vec3A::from).collect(),
+                    normals: m.normals.into_par_iter().map(Vec3A::from).collect(),
                     uvs: m.uvs,
                     materials: vec![0; m.triangles.len()],
                     motion: None,
@@ -577,10 +579,10 @@ pub fn load(desc: &SceneDesc, ctx: &LoadContext) -> Result<Scene> {
         for (mut mesh, material) in loaded.meshes {
             if inline {
                 let has = !d.materials.is_empty();
-                mesh.materials.iter_mut().for_each(|m| *m = if has { base + *m } else { default_index });
+                mesh.materials.par_iter_mut().for_each(|m| *m = if has { base + *m } else { default_index });
             } else {
                 let idx = material.map(|i| base + i as u32).unwrap_or(default_index);
-                mesh.materials.iter_mut().for_each(|m| *m = idx);
+                mesh.materials.par_iter_mut().for_each(|m| *m = idx);
             }
             placement.apply(&mut mesh);
             mesh.motion = motion(&d.motion)?;
@@ -892,16 +894,14 @@ impl Placement {
     }
 
     fn apply(&self, mesh: &mut Mesh) {
-        for p in &mut mesh.positions {
+        mesh.positions.par_iter_mut().for_each(|p| {
             let q = (Vec3::from(*p) - self.center) * self.inv_scale;
             *p = (self.rotation * (q * self.scale) + self.translate).into();
-        }
+        });
         // A uniform scale keeps normals' directions; only the rotation (and a negative scale's
         // flip) applies.
         let flip = self.scale.signum();
-        for n in &mut mesh.normals {
-            *n = Vec3A::from(self.rotation * Vec3::from(*n) * flip);
-        }
+        mesh.normals.par_iter_mut().for_each(|n| *n = Vec3A::from(self.rotation * Vec3::from(*n) * flip));
     }
 }
 

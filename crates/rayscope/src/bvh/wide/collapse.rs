@@ -13,6 +13,7 @@
 use super::kernels::{Lanes, NodeWidth};
 use super::layout::{LeafRange, Tri4, WideNode};
 use super::{ChildRef, Simd, WideBvh};
+use bytemuck::Zeroable;
 use wide::f32x8;
 
 use crate::bvh::{Bvh, MAX_DEPTH, Primitives};
@@ -387,26 +388,15 @@ impl<'a, const W: usize> Out<'a, W> {
     }
 }
 
-/// Types whose all-zero bit pattern is a value (plain floats and integers), which
-/// [`zeroed_vec`] may allocate.
-///
-/// # Safety
-/// All-zero bits must be a valid value of the type.
-unsafe trait ZeroBits {}
-
-// SAFETY: the rows are `f32`s and the children `ChildRef`s, each a `u32`.
-unsafe impl<const W: usize> ZeroBits for WideNode<W> {}
+// The wide tree's arrays are allocated zeroed (`bytemuck::zeroed_vec`: for large arrays,
+// fresh pages that the system zeroes when first touched, not written here), for the fill to
+// write once.
+// SAFETY: the rows are `f32`s and the children `ChildRef`s, each a `u32`: all-zero bits are a value.
+unsafe impl<const W: usize> Zeroable for WideNode<W> {}
 // SAFETY: `f32` corners and `u32` slots.
-unsafe impl ZeroBits for Tri4 {}
+unsafe impl Zeroable for Tri4 {}
 // SAFETY: two `u32`s.
-unsafe impl ZeroBits for LeafRange {}
-
-/// `n` values of all-zero bits, from zeroed memory (for large arrays, fresh pages that the
-/// system zeroes when first touched, not written here).
-fn zeroed_vec<T: ZeroBits>(n: usize) -> Vec<T> {
-    // SAFETY: all-zero bits are a `T` (`ZeroBits`), and the slice is zeroed.
-    unsafe { Box::<[T]>::new_zeroed_slice(n).assume_init() }.into_vec()
-}
+unsafe impl Zeroable for LeafRange {}
 
 /// What the leaf that `d` decided on takes, its first block at index `first`: blocks when its
 /// slots are all static triangles, few enough, and the first block's index fits a
@@ -521,9 +511,9 @@ where
     /// written twice, the first time on one thread (120 ms of a 4M-triangle mesh's 300 ms
     /// collapse on two cores).
     fn alloc(&mut self, c: Counts) {
-        self.nodes = zeroed_vec(c.nodes);
-        self.blocks = zeroed_vec(c.blocks);
-        self.ranges = zeroed_vec(c.ranges);
+        self.nodes = bytemuck::zeroed_vec(c.nodes);
+        self.blocks = bytemuck::zeroed_vec(c.blocks);
+        self.ranges = bytemuck::zeroed_vec(c.ranges);
     }
 
     /// The whole tree's arrays, to write.
