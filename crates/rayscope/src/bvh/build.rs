@@ -192,15 +192,10 @@ impl Bvh {
         let mut parts = Nodes::for_prims(prims.len(), params);
         let b = Bounds::of(&prims);
         build_node(&mut prims, b, 0, 0, params, &mut parts);
-        let mut nodes = parts.into_vec();
-        // Subtrees were built with second-child indices relative to their own node, so they
-        // could be built apart and concatenated; make them absolute now.
-        for (i, node) in nodes.iter_mut().enumerate() {
-            if !node.is_leaf() {
-                node.start += i as u32;
-            }
-        }
-        Bvh { nodes, prim_indices: prims.iter().map(BuildPrim::index).collect() }
+        let nodes = parts.into_vec();
+        let mut prim_indices = Vec::with_capacity(prims.len());
+        prims.par_iter().map(BuildPrim::index).collect_into_vec(&mut prim_indices);
+        Bvh { nodes, prim_indices }
     }
 }
 
@@ -266,14 +261,28 @@ impl Nodes {
         }
     }
 
+    /// All the nodes in one array, their second-child indices made absolute: subtrees were
+    /// built with indices relative to their own node, so they could be built apart and
+    /// joined. The arrays are copied on every core, each into its place.
     fn into_vec(self) -> Vec<BvhNode> {
-        if self.done.is_empty() {
-            return self.cur;
-        }
-        let mut all = Vec::with_capacity(self.len());
+        use rayon::prelude::*;
+        let mut all: Vec<BvhNode> = bytemuck::zeroed_vec(self.len());
+        // Each array with its place in `all` and the index of its first node there.
+        let (mut rest, mut first) = (&mut all[..], 0);
+        let mut parts = Vec::with_capacity(self.done.len() + 1);
         for part in self.done.iter().chain(std::iter::once(&self.cur)) {
-            all.extend_from_slice(part);
+            let (place, after) = std::mem::take(&mut rest).split_at_mut(part.len());
+            parts.push((place, &part[..], first));
+            (rest, first) = (after, first + part.len());
         }
+        parts.into_par_iter().for_each(|(place, part, first)| {
+            for (i, (to, node)) in place.iter_mut().zip(part).enumerate() {
+                *to = *node;
+                if !node.is_leaf() {
+                    to.start += (first + i) as u32;
+                }
+            }
+        });
         all
     }
 }

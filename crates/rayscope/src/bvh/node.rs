@@ -29,6 +29,10 @@ pub struct BvhNode {
 
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 
+// SAFETY: `f32`s and `u32`s, no padding: all-zero bits are a node (the builder's arrays are
+// allocated zeroed, for its threads to fill).
+unsafe impl bytemuck::Zeroable for BvhNode {}
+
 impl BvhNode {
     /// A node with this box.
     pub fn new(bounds: Aabb, start: u32, count: u32) -> BvhNode {

@@ -1,5 +1,7 @@
 //! The scene's shapes in BVH order, and the BVH over them.
 
+use rayon::prelude::*;
+
 use super::{Hit, Mesh, PrimRef, SceneSphere};
 use crate::animation::Shutter;
 use crate::bvh::{BuildParams, Bvh, NoObserver, Occluders, PACKET, Primitives, TraversalObserver, WideTree};
@@ -222,7 +224,7 @@ impl Geometry {
             first.push(geometry.vertices.len() as u32);
             // Moved as `still_shape` moves them, so that the corners are its corners.
             let offset = m.motion.as_ref().map_or(Vec3A::ZERO, MotionPath::start);
-            geometry.vertices.extend(m.positions.iter().map(|&p| p + offset));
+            geometry.vertices.par_extend(m.positions.par_iter().map(|&p| p + offset));
         }
         // Spheres are `others` in their own order.
         geometry.others = (0..spheres.len() as u32).map(|s| shape(&PrimRef::Sphere(s))).collect();
@@ -243,7 +245,6 @@ impl Geometry {
         let order = &geometry.bvh.prim_indices;
         let both = |&i: &u32| (corners(i), slot_info(i));
         (geometry.corners, geometry.slots) = if order.len() > PARALLEL_PASS {
-            use rayon::prelude::*;
             order.par_iter().map(both).unzip()
         } else {
             order.iter().map(both).unzip()
@@ -424,7 +425,6 @@ const PARALLEL_PASS: usize = 1 << 14;
 
 /// `f` over `items`, on all threads for large scenes.
 fn map<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
-    use rayon::prelude::*;
     if items.len() > PARALLEL_PASS { items.par_iter().map(f).collect() } else { items.iter().map(f).collect() }
 }
 

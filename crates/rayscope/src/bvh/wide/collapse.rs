@@ -66,6 +66,10 @@ struct Decision<const W: usize> {
     range: LeafRange,
 }
 
+// SAFETY: bytes, a `bool` and two `u32`s: all-zero bits are a decision (no children, not
+// packable, an empty range).
+unsafe impl<const W: usize> Zeroable for Decision<W> {}
+
 /// For `j` in `1..=W` slots (at index `j - 1`), the least cost of a left subtree in `k` of
 /// them and a right one in `j - k`, and the least such `k` (`l` and `r` give each subtree's
 /// least cost in `i` slots at index `i - 1`). Every `k` at once for eight `j`, eight lanes
@@ -177,8 +181,9 @@ struct Plan<const W: usize> {
 impl<const W: usize> Plan<W> {
     /// Decide for every node of `bin` (not empty), bottom-up, subtrees in parallel.
     fn new<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
-        let empty = Decision { choice: [0; W], split: 0, packable: false, range: LeafRange::default() };
-        let mut nodes = vec![empty; bin.nodes.len()];
+        // Zeroed memory (the decisions' threads touch it first), where writing empty decisions
+        // took a pass on one thread.
+        let mut nodes = bytemuck::zeroed_vec(bin.nodes.len());
         Self::subtree(bin, prims, 0, &mut nodes);
         Plan { nodes }
     }
