@@ -179,13 +179,17 @@ impl Bvh {
     pub fn build_from(count: usize, bounds: impl Fn(usize) -> Aabb + Sync, params: &BuildParams) -> Bvh {
         use rayon::prelude::*;
         let prim = |i: usize| BuildPrim::new(bounds(i), i as u32);
-        // Made in place (an exact-size collect), then the rare unusable boxes dropped.
+        // Made in place (an exact-size collect), then the rare unusable boxes dropped (looked
+        // for on every core: `retain` goes through every primitive on one).
         let mut prims: Vec<BuildPrim> = if count > PARALLEL_PASS {
             (0..count).into_par_iter().map(prim).collect()
         } else {
             (0..count).map(prim).collect()
         };
-        prims.retain(|p| p.bounds().is_finite() && !p.bounds().is_empty());
+        let usable = |p: &BuildPrim| p.bounds().is_finite() && !p.bounds().is_empty();
+        if !prims.par_iter().all(usable) {
+            prims.retain(usable);
+        }
         if prims.is_empty() {
             return Bvh::default();
         }
