@@ -56,6 +56,14 @@ pub trait Primitives {
     fn triangle(&self, _index: u32) -> Option<crate::geometry::Triangle> {
         None
     }
+
+    /// Whether [`Primitives::triangle`] gives primitive `index`: what the wide tree's collapse
+    /// asks of every primitive when it plans which leaves to pack, before it packs them.
+    /// Implementations that know it without making the triangle say so here (making it reads
+    /// the triangle's corners, cache misses in the tree's order).
+    fn is_triangle(&self, index: u32) -> bool {
+        self.triangle(index).is_some()
+    }
 }
 
 /// A bounding volume hierarchy in one flat array, depth-first: a node's first child follows it.

@@ -136,6 +136,10 @@ impl Primitives for Geometry {
     fn triangle(&self, index: u32) -> Option<Triangle> {
         self.triangle_of(self.corners[index as usize])
     }
+
+    fn is_triangle(&self, index: u32) -> bool {
+        self.is_triangle_of(self.corners[index as usize])
+    }
 }
 
 /// The slots' shapes while `Geometry::corners` is not yet made: slot `i`'s corners are
@@ -153,6 +157,13 @@ impl<F: Fn(u32) -> [u32; 3]> Primitives for Unsorted<'_, F> {
 
     fn triangle(&self, index: u32) -> Option<Triangle> {
         self.geometry.triangle_of((self.corners)(index))
+    }
+
+    /// Without reading the slot's corners where every shape is a static triangle (a scene of
+    /// meshes that stand still): the planning's reads of them in the tree's order were cache
+    /// misses, 5% of a 1M-triangle build.
+    fn is_triangle(&self, index: u32) -> bool {
+        self.geometry.others.is_empty() || self.geometry.is_triangle_of((self.corners)(index))
     }
 }
 
@@ -281,6 +292,15 @@ impl Geometry {
                 _ => None,
             },
             [a, b, c] => Some(self.corner_triangle([a, b, c])),
+        }
+    }
+
+    /// Whether [`Geometry::triangle_of`] gives a triangle for these corners.
+    #[inline(always)]
+    fn is_triangle_of(&self, corners: [u32; 3]) -> bool {
+        match corners {
+            [OTHER, i, _] => matches!(self.others[i as usize], Shape::Triangle(_)),
+            _ => true,
         }
     }
 

@@ -229,7 +229,7 @@ impl<const W: usize> Plan<W> {
     fn decide_leaf<P: Primitives + ?Sized>(bin: &Bvh, prims: &P, i: usize) -> (Decision<W>, Costs<W>) {
         let node = &bin.nodes[i];
         let (start, count) = (node.start, node.count);
-        let packable = (start..start + count).all(|s| prims.triangle(s).is_some());
+        let packable = (start..start + count).all(|s| prims.is_triangle(s));
         let tests = if packable { leaf_tests(count) } else { count as f32 };
         let d = Decision { choice: [1; W], split: 0, packable, range: LeafRange { start, count } };
         (d, [node.bounds().half_area() * tests; W])
