@@ -4,7 +4,9 @@
 
 use serde::Serialize;
 
-use super::build::{Bounds, BuildParams, BuildPrim, MAX_BINS, bin_count, fill_bins, leaf_cost, sah_cost, sweep};
+use super::build::{
+    Bounds, BuildParams, BuildPrim, EMPTY_BIN, MAX_BINS, bin_count, fill_bins, leaf_cost, sah_cost, sweep,
+};
 use super::{Bvh, MAX_DEPTH};
 use crate::geometry::Aabb;
 use crate::math::Vec3A;
@@ -83,7 +85,8 @@ pub fn split_candidates(bvh: &Bvh, bounds: &[Aabb], node: u32, params: &BuildPar
     let nb = bin_count(prims.len(), params);
     let extent = b.centroids.extent();
     let scale = Vec3A::splat(nb as f32) / extent;
-    let bins = fill_bins::<MAX_BINS>(&prims, b.centroids.min, scale, nb);
+    let mut bins = [[EMPTY_BIN; MAX_BINS]; 3];
+    fill_bins::<MAX_BINS>(&prims, b.centroids.min, scale, nb, &mut bins);
     let parent_area = b.bounds.half_area().max(f32::MIN_POSITIVE);
     let mut axis: [Vec<Candidate>; 3] = Default::default();
     let (mut best_weight, mut chosen) = (f32::INFINITY, None);
