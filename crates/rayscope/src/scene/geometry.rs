@@ -137,33 +137,10 @@ impl Primitives for Geometry {
         self.triangle_of(self.corners[index as usize])
     }
 
+    /// From the slot's corners alone: the collapse asks it of every slot while it plans, and
+    /// making the triangle read its three corners from the vertices, out of order.
     fn is_triangle(&self, index: u32) -> bool {
         self.is_triangle_of(self.corners[index as usize])
-    }
-}
-
-/// The slots' shapes while `Geometry::corners` is not yet made: slot `i`'s corners are
-/// `corners(i)`. The collapse reads the shapes through this, so that the plan and the wide
-/// tree it makes are alive before the slots' arrays, not with them.
-struct Unsorted<'a, F> {
-    geometry: &'a Geometry,
-    corners: F,
-}
-
-impl<F: Fn(u32) -> [u32; 3]> Primitives for Unsorted<'_, F> {
-    fn intersect(&self, index: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<PrimHit> {
-        self.geometry.intersect_shape(&self.geometry.shape_of((self.corners)(index)), ray, t_min, t_max)
-    }
-
-    fn triangle(&self, index: u32) -> Option<Triangle> {
-        self.geometry.triangle_of((self.corners)(index))
-    }
-
-    /// Without reading the slot's corners where every shape is a static triangle (a scene of
-    /// meshes that stand still): the planning's reads of them in the tree's order were cache
-    /// misses, 5% of a 1M-triangle build.
-    fn is_triangle(&self, index: u32) -> bool {
-        self.geometry.others.is_empty() || self.geometry.is_triangle_of((self.corners)(index))
     }
 }
 
@@ -223,10 +200,11 @@ impl Geometry {
             geometry.wide = WideTree::from_binary(&geometry.bvh, &geometry);
             return geometry;
         }
-        // Nothing moves: the bounds come straight from the meshes (no array of them); the
-        // wide tree is collapsed before the slots' arrays are made, each slot's corners then
-        // found once, in slot order, beside its slot's information (a shapes array in global
-        // order and a reordering pass were a third of the build on two cores).
+        // Nothing moves: the bounds come straight from the meshes (no array of them); each
+        // slot's corners are then found once, in slot order, and the wide tree collapsed over
+        // them (a shapes array in global order and a reordering pass were a third of the build
+        // on two cores; the collapse packing each slot's triangle through the faces in the
+        // tree's order, a cache miss a slot, was another 6%).
         let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
         geometry.bvh = Bvh::build_from(count, |i| shape(&prim(i as u32)).bounds(), params);
         let mut first = Vec::with_capacity(meshes.len());
@@ -239,27 +217,19 @@ impl Geometry {
         }
         // Spheres are `others` in their own order.
         geometry.others = (0..spheres.len() as u32).map(|s| shape(&PrimRef::Sphere(s))).collect();
-        let corners = |i: u32| match prim(i) {
+        let corners = |&i: &u32| match prim(i) {
             PrimRef::Triangle { mesh, face } => {
                 meshes[mesh as usize].triangles[face as usize].map(|c| first[mesh as usize] + c)
             }
             PrimRef::Sphere(s) => [OTHER, s, 0],
         };
-        let order = &geometry.bvh.prim_indices;
-        let unsorted = Unsorted { geometry: &geometry, corners: |slot: u32| corners(order[slot as usize]) };
-        let wide = WideTree::from_binary(&geometry.bvh, &unsorted);
-        geometry.wide = wide;
+        geometry.corners = map(&geometry.bvh.prim_indices, corners);
+        geometry.wide = WideTree::from_binary(&geometry.bvh, &geometry);
         if count > PARALLEL_PASS {
-            // The plan's memory, before the slots' arrays are made.
+            // The plan's memory, before the slots' array is made.
             crate::io::memory::release_free_memory();
         }
-        let order = &geometry.bvh.prim_indices;
-        let both = |&i: &u32| (corners(i), slot_info(i));
-        (geometry.corners, geometry.slots) = if order.len() > PARALLEL_PASS {
-            order.par_iter().map(both).unzip()
-        } else {
-            order.iter().map(both).unzip()
-        };
+        geometry.slots = map(&geometry.bvh.prim_indices, |&i| slot_info(i));
         geometry
     }
 
