@@ -138,7 +138,7 @@ impl Primitives for Geometry {
     }
 
     /// From the slot's corners alone: the collapse asks it of every slot while it plans, and
-    /// making the triangle read its three corners from the vertices, out of order.
+    /// making the triangle would read its three corners from the vertices, out of order.
     fn is_triangle(&self, index: u32) -> bool {
         self.is_triangle_of(self.corners[index as usize])
     }
