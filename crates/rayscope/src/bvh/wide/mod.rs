@@ -23,7 +23,8 @@
 //!   AVX-512 tests;
 //! - `stack.rs`: the traversals' fixed stack;
 //! - `traverse.rs`: closest-hit and any-hit traversal, one ray at a time;
-//! - `packet.rs`: closest hits of packets of camera rays that share an origin;
+//! - `packet/`: closest hits of packets of camera rays that share an origin (`mod.rs`: the
+//!   traversal; `setup.rs`: the packet's set-up, portable and in AVX2 lanes);
 //! - `frustum.rs`: whether a frustum of rays (a tile's camera rays) may meet any leaf box;
 //! - `shadow.rs`: shadow rays grouped per shading point, answered without a traversal;
 //! - `validate.rs`: the tree's invariants;

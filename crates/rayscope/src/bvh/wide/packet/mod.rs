@@ -7,9 +7,8 @@
 //! children were hit, in which order); a packet pays once. Inner nodes are tested against the
 //! whole packet at once by interval arithmetic (the children in the vector lanes, eight at a
 //! time, as for one ray): with a shared origin, each slab distance `(plane - o) * inv` is
-//! bounded over the
-//! packet by the smallest and largest inverse direction, so a child the packet test rejects is
-//! missed by every ray. A leaf's box is then tested per ray, exactly as the single-ray
+//! bounded over the packet by the smallest and largest inverse direction, so a child the
+//! packet test rejects is missed by every ray. A leaf's box is then tested per ray, exactly as the single-ray
 //! traversal tests it, and only the rays that hit it intersect its triangles, each with the
 //! single-ray leaf code (`WideBvh::leaf_closest`).
 //!
@@ -17,51 +16,32 @@
 //! may visit more inner nodes than a ray would (never fewer), leaves are culled by the same
 //! per-ray test, and ties between equally distant primitives go to the lower slot whatever
 //! the order leaves are visited in.
+//!
+//! Here: the traversal and its inner-node tests (portable, AVX2, AVX-512). In `setup`: the
+//! packet's set-up, which checks that the rays can go as one and puts them in the layouts the
+//! tests need, ray by ray or eight lanes at a time in AVX2 (the same packet bit for bit).
 
 use wide::f32x8;
 
-use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, SLAB_ROUNDING, Slab, fused_mul_sub, planes};
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, fused_mul_sub};
 use super::layout::WideNode;
 use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
-use super::traverse::{OneRay, ray_is_finite, sort_far_to_near};
+use super::traverse::{OneRay, sort_far_to_near};
 use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives, QueryKind, TraversalObserver};
-use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;
 use crate::ray::Ray;
+
+mod setup;
 
 /// Rays per packet.
 pub const PACKET: usize = 8;
 
 /// The closest hit of each ray of a packet (`None` beyond the rays given).
 pub type PacketHits = [Option<BvhHit>; PACKET];
-
-/// Whether `rays`, whose inverse directions are `invs`, can be traced as one packet: at most
-/// [`PACKET`] finite rays with the same origin (bit for bit) and, per axis, the same direction
-/// sign.
-#[inline(always)]
-fn packet_compatible(rays: &[Ray], invs: &[Vec3A; PACKET]) -> bool {
-    let Some(first) = rays.first() else { return false };
-    if rays.len() > PACKET || !ray_is_finite(first) {
-        return false;
-    }
-    // The same origin bit for bit (so only the first one's needs checking for finiteness);
-    // every ray checked without an early exit, which would be a branch per ray.
-    let origin = first.origin.to_array().map(f32::to_bits);
-    let sign = |inv: &Vec3A| inv.cmplt(Vec3A::ZERO).bitmask();
-    let mut ok = true;
-    for (r, inv) in rays.iter().zip(invs) {
-        ok &= (r.origin.to_array().map(f32::to_bits) == origin)
-            & (sign(inv) == sign(&invs[0]))
-            & r.dir.is_finite()
-            & !r.t.min.is_nan()
-            & !r.t.max.is_nan();
-    }
-    ok
-}
 
 /// The lesser of two numbers that are not NaN (the packet's rays are checked finite, their
 /// hits' distances are finite): one instruction, where `f32::min`'s handling of NaN costs
@@ -111,8 +91,12 @@ pub struct Packet {
     /// starts with -0 made +0.
     nonneg: u32,
     t_min_pos: f32x8,
-    /// Smallest interval start over the packet.
+    /// Smallest interval start over the packet (a zero as +0).
     t_min_lo: f32,
+    /// Each ray's interval end, as given.
+    t_end: f32x8,
+    /// The farthest interval end over the packet.
+    t_far: f32,
     /// Rays in the packet.
     active: u32,
 }
@@ -122,6 +106,9 @@ pub struct Packet {
 pub trait PacketNodeTest<const W: usize>: Sized {
     /// The token that proves the CPU has the test's features ([`Baseline`]: none).
     type Cpu: Copy;
+
+    /// The packet of `rays` (see [`Packet::new`]), made on the CPU `cpu` vouches for.
+    fn packet(cpu: Self::Cpu, rays: &[Ray], reach: f32) -> Option<Packet>;
 
     /// Prepare the test for packet `p`, on the CPU `cpu` vouches for.
     fn new(cpu: Self::Cpu, p: &Packet) -> Self;
@@ -135,6 +122,11 @@ pub struct PortablePacketTest;
 
 impl<const W: usize> PacketNodeTest<W> for PortablePacketTest {
     type Cpu = Baseline;
+
+    #[inline(always)]
+    fn packet(_: Baseline, rays: &[Ray], reach: f32) -> Option<Packet> {
+        Packet::new(rays, reach)
+    }
 
     #[inline(always)]
     fn new(_: Baseline, _: &Packet) -> Self {
@@ -171,6 +163,11 @@ macro_rules! simd_packet_test {
         #[cfg(target_arch = "x86_64")]
         impl PacketNodeTest<$w> for $name {
             type Cpu = $cpu;
+
+            #[inline(always)]
+            fn packet(cpu: $cpu, rays: &[Ray], reach: f32) -> Option<Packet> {
+                Packet::new_avx2(cpu.into(), rays, reach)
+            }
 
             #[inline(always)]
             fn new(_: $cpu, p: &Packet) -> Self {
@@ -283,6 +280,10 @@ impl PacketWidth<16> for Lanes<16> {
 /// [`Packet::test`]).
 const PACKET_EPS: f32 = 1.0 / (1 << 21) as f32;
 
+/// Relative bound on the rounding of the single-ray test's `o * inv` over the packet (see
+/// [`Packet::slack`]): twice the worst, 2^-24, with room to spare.
+const SLACK_ROUNDING: f32 = 1.0 / (1 << 22) as f32;
+
 impl<const W: usize> WideBvh<W>
 where
     Lanes<W>: NodeWidth<W> + PacketWidth<W>,
@@ -391,27 +392,23 @@ where
         obs: &mut [O; PACKET],
     ) -> PacketHits {
         let mut hits = [None; PACKET];
-        let last = rays.len() - 1;
-        // Lanes beyond the packet repeat its last ray.
-        let invs: [Vec3A; PACKET] = std::array::from_fn(|lane| safe_inv_dir(rays[lane.min(last)].dir));
-        if !packet_compatible(rays, &invs) {
+        let Some(p) = Q::packet(node_cpu, rays, self.reach) else {
             for ((hit, ray), o) in hits.iter_mut().zip(rays).zip(obs.iter_mut()) {
                 *hit = self.intersect_counted(ray, prims, o);
             }
             return hits;
-        }
+        };
         if O::WATCHES {
             for (ray, o) in rays.iter().zip(obs.iter_mut()) {
                 o.query(QueryKind::Packet, ray);
             }
         }
-        self.packet_with::<T, Q, P, O>(leaf_cpu, node_cpu, rays, &invs, prims, &mut hits, obs);
+        self.packet_with::<T, Q, P, O>(leaf_cpu, node_cpu, rays, &p, prims, &mut hits, obs);
         hits
     }
 
-    /// The packet traversal, with `T` for each ray's leaf tests and `Q` for the inner nodes
-    /// (made with `leaf_cpu` and `node_cpu`). `rays` is non-empty and packet-compatible,
-    /// `invs` their inverse directions (lanes beyond the packet repeating its last ray).
+    /// The packet traversal of `p` (made of `rays`), with `T` for each ray's leaf tests and
+    /// `Q` for the inner nodes (made with `leaf_cpu` and `node_cpu`).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
@@ -419,66 +416,16 @@ where
         leaf_cpu: T::Cpu,
         node_cpu: Q::Cpu,
         rays: &[Ray],
-        invs: &[Vec3A; PACKET],
+        p: &Packet,
         prims: &P,
         hits: &mut PacketHits,
         obs: &mut [O; PACKET],
     ) {
         let n = rays.len();
-        let ray = |lane: usize| &rays[lane.min(n - 1)];
-        let axis = |a: usize| f32x8::new(invs.map(|v| v[a]));
-        let inv = [axis(0), axis(1), axis(2)];
-        let o = rays[0].origin;
-        // Each ray's `o * inv` for entry and exit planes, as its single-ray test has them:
-        // `SlabOrigin::new`'s operations in its order, eight rays at a time (the same bits).
-        let slab = |a: usize| {
-            let oinv = f32x8::splat(o[a]) * inv[a];
-            let pad =
-                ((f32x8::splat(o[a].abs()) + f32x8::splat(self.reach)) * inv[a].abs() * f32x8::splat(SLAB_ROUNDING))
-                    .fast_min(f32x8::splat(f32::MAX));
-            (oinv + pad, oinv - pad)
-        };
-        let slab = [slab(0), slab(1), slab(2)];
-        let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-        for v in &invs[..n] {
-            for a in 0..3 {
-                inv_lo[a] = lesser(inv_lo[a], v[a]);
-                inv_hi[a] = greater(inv_hi[a], v[a]);
-            }
-        }
-        // The rows entered and left by are the same for every ray: one sign per axis.
-        let (near_row, far_row) = planes(invs[0]);
-        let t_min_of = |lane: usize| ray(lane).t.min;
-        // Finite, as in the single-ray test: with an end at -inf, a ray going down every axis
-        // would meet the empty slots' boxes at +inf.
-        let t_min: [f32; PACKET] = std::array::from_fn(|lane| greater(t_min_of(lane), f32::MIN));
-        let p = Packet {
-            o,
-            near_row,
-            far_row,
-            inv_lo,
-            inv_hi,
-            inv,
-            oinv_near: slab.map(|(near, _)| near),
-            oinv_far: slab.map(|(_, far)| far),
-            // Twice the worst rounding of `o * inv` (2^-24 relative), with room to spare, and
-            // the widest the single-ray tests' entry and exit planes are moved apart (over all
-            // lanes: those beyond the packet repeat its last ray).
-            slack: std::array::from_fn(|a| {
-                let apart = (slab[a].0 - slab[a].1).to_array().into_iter().fold(0.0f32, greater);
-                o[a].abs() * inv_lo[a].abs().max(inv_hi[a].abs()) * (2.0f32).powi(-22) + apart
-            }),
-            nonneg: (0..PACKET).filter(|&lane| t_min_of(lane) >= 0.0).fold(0, |m, lane| m | 1 << lane),
-            t_min_pos: f32x8::new(std::array::from_fn(|lane| t_min_of(lane) + 0.0)),
-            t_min: f32x8::new(t_min),
-            // Lanes beyond the packet repeat its last ray: the least over all is over the rays.
-            t_min_lo: t_min.into_iter().fold(f32::INFINITY, lesser),
-            active: (1u32 << n) - 1,
-        };
-        let nodes = Q::new(node_cpu, &p);
-        let mut t_max: [f32; PACKET] = std::array::from_fn(|lane| ray(lane).t.max);
+        let nodes = Q::new(node_cpu, p);
+        let mut t_max: [f32; PACKET] = p.t_end.to_array();
         // The packet's farthest interval end, for the inner nodes' test and the stack.
-        let mut t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
+        let mut t_far = p.t_far;
 
         // Each ray's leaf-test set-up, made when the ray first reaches a leaf (rays that miss
         // everything never need one).
@@ -497,7 +444,8 @@ where
                     let r = &rays[lane];
                     if made & 1 << lane == 0 {
                         // From the inverse direction the packet has: no division.
-                        singles[lane].write(RayLanes::with_inv(r, invs[lane]));
+                        let inv = Vec3A::from_array(p.inv.map(|v| v.as_array()[lane]));
+                        singles[lane].write(RayLanes::with_inv(r, inv));
                         made |= 1 << lane;
                     }
                     // SAFETY: written above, or earlier as `made` records.
@@ -526,7 +474,7 @@ where
                         obs[lane].boxes_tested(W as u32);
                     }
                 }
-                let (near, mut mask) = nodes.test(&p, node, t_far);
+                let (near, mut mask) = nodes.test(p, node, t_far);
                 let mut order = [Entry { child: ChildRef::EMPTY, lanes: 0, near: 0.0 }; W];
                 let mut k = 0;
                 let t_max_v = f32x8::new(t_max);
