@@ -115,6 +115,12 @@ pub trait PacketNodeTest<const W: usize>: Sized {
 
     /// [`Packet::test`] on `node`.
     fn test(&self, p: &Packet, node: &WideNode<W>, t_far: f32) -> ([f32; W], u32);
+
+    /// [`Packet::leaf_lanes`]: the rays whose own box test lets them into child `i`.
+    #[inline(always)]
+    fn leaf_lanes(&self, p: &Packet, node: &WideNode<W>, i: usize, t_max: f32x8) -> u32 {
+        p.leaf_lanes(node, i, t_max)
+    }
 }
 
 /// The portable packet test: children eight at a time in the `wide` vectors.
@@ -158,6 +164,7 @@ macro_rules! simd_packet_test {
             hi: [std::arch::x86_64::$v; 3],
             slack: [std::arch::x86_64::$v; 3],
             t_min_lo: std::arch::x86_64::$v,
+            cpu: $cpu,
         }
 
         #[cfg(target_arch = "x86_64")]
@@ -170,7 +177,7 @@ macro_rules! simd_packet_test {
             }
 
             #[inline(always)]
-            fn new(_: $cpu, p: &Packet) -> Self {
+            fn new(cpu: $cpu, p: &Packet) -> Self {
                 use std::arch::x86_64::$splat as splat;
                 // SAFETY: the token proves that the CPU has the intrinsics' features.
                 unsafe {
@@ -180,6 +187,7 @@ macro_rules! simd_packet_test {
                         hi: [splat(p.inv_hi[0]), splat(p.inv_hi[1]), splat(p.inv_hi[2])],
                         slack: [splat(p.slack[0]), splat(p.slack[1]), splat(p.slack[2])],
                         t_min_lo: splat(p.t_min_lo),
+                        cpu,
                     }
                 }
             }
@@ -203,6 +211,11 @@ macro_rules! simd_packet_test {
                     let ($la, $lb) = (near, far);
                     (d, $le)
                 }
+            }
+
+            #[inline(always)]
+            fn leaf_lanes(&self, p: &Packet, node: &WideNode<$w>, i: usize, t_max: f32x8) -> u32 {
+                p.leaf_lanes_avx2(self.cpu.into(), node, i, t_max)
             }
         }
 
@@ -482,8 +495,11 @@ where
                     let i = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let child = node.child[i];
-                    let lanes =
-                        if child.is_leaf() { p.leaf_lanes(node, i, t_max_v) & current.lanes } else { current.lanes };
+                    let lanes = if child.is_leaf() {
+                        nodes.leaf_lanes(p, node, i, t_max_v) & current.lanes
+                    } else {
+                        current.lanes
+                    };
                     if lanes != 0 {
                         order[k] = Entry { child, lanes, near: near[i] };
                         self.prefetch(child);
@@ -558,6 +574,55 @@ impl Packet {
             .fast_min(bound(self.far_row[2], 2, false).fast_min(f32x8::splat(t_far.min(f32::MAX))));
         near_out.copy_from_slice(near.as_array());
         near.simd_le(far).to_bitmask()
+    }
+
+    /// [`Packet::leaf_lanes`] in AVX2 intrinsics: the eight rays in one 256-bit vector, where
+    /// the portable vectors take two halves and their fused multiply-subtract goes lane by lane
+    /// (`fused_mul_sub` without `wide` fusing). The same operations in the same order, so the
+    /// same lanes. A method, not a closure (see [`Packet::new_avx2`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn leaf_lanes_avx2<const W: usize>(&self, _: Avx2, node: &WideNode<W>, i: usize, t_max: f32x8) -> u32 {
+        use std::arch::x86_64::*;
+        // SAFETY: the token proves that the CPU has AVX2 and FMA, and the traversals that call
+        // this are compiled for them; the transmutes are between eight floats and eight
+        // floats.
+        unsafe {
+            let v = |x: f32x8| std::mem::transmute::<[f32; 8], __m256>(x.to_array());
+            let (b, nr, fr) = (&node.bounds, self.near_row, self.far_row);
+            let (inv, on, of) = (self.inv.map(v), self.oinv_near.map(v), self.oinv_far.map(v));
+            let near = [
+                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[0]][i]), inv[0], on[0]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[1]][i]), inv[1], on[1]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[2]][i]), inv[2], on[2]),
+            ];
+            let far = [
+                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[0]][i]), inv[0], of[0]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[1]][i]), inv[1], of[1]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[2]][i]), inv[2], of[2]),
+            ];
+            let t_max = _mm256_min_ps(v(t_max), _mm256_set1_ps(f32::MAX));
+            // `Slab::forward`: intervals from +0 on, compared as integers.
+            let near_i = [_mm256_castps_si256(near[0]), _mm256_castps_si256(near[1]), _mm256_castps_si256(near[2])];
+            let far_i = [_mm256_castps_si256(far[0]), _mm256_castps_si256(far[1]), _mm256_castps_si256(far[2])];
+            let n = _mm256_max_epi32(
+                _mm256_max_epi32(near_i[0], near_i[1]),
+                _mm256_max_epi32(near_i[2], _mm256_castps_si256(v(self.t_min_pos))),
+            );
+            let f = _mm256_min_epi32(
+                _mm256_min_epi32(far_i[0], far_i[1]),
+                _mm256_min_epi32(far_i[2], _mm256_castps_si256(t_max)),
+            );
+            let miss = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(n, f))) as u32;
+            let mut hit = !miss & 0xff & self.nonneg;
+            if self.nonneg & self.active != self.active {
+                // `Slab::lines`: float order for the rays that are lines.
+                let n = _mm256_max_ps(_mm256_max_ps(near[0], near[1]), _mm256_max_ps(near[2], v(self.t_min)));
+                let f = _mm256_min_ps(_mm256_min_ps(far[0], far[1]), _mm256_min_ps(far[2], t_max));
+                hit |= _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(n, f)) as u32 & !self.nonneg;
+            }
+            hit & self.active
+        }
     }
 
     /// The rays that hit child `i` of `node` within their own intervals, tested as the
