@@ -5,6 +5,8 @@
 //! skip its traversal (Reshetov, Soupikov and Hurley, "Multi-level ray tracing algorithm",
 //! 2005; Benthin and Wald's frustum culling of ray packets).
 
+use wide::f32x8;
+
 use crate::geometry::Aabb;
 use crate::math::Vec3A;
 
@@ -78,6 +80,33 @@ impl Frustum {
     }
 }
 
+impl Frustum {
+    /// [`Frustum::may_meet`] for eight boxes at once, given as their corners' coordinates
+    /// (`min[axis]`, `max[axis]`, a box per lane): the mask of the boxes it keeps. The same
+    /// operations in the same order on each lane (glam's `dot`, `element_sum` and
+    /// `max_element` included, NaN handling and all), so the same answers; the BVH's frustum
+    /// walk tests a node's children this way rather than one box at a time.
+    #[inline]
+    pub fn may_meet_lanes(&self, min: [f32x8; 3], max: [f32x8; 3]) -> u32 {
+        let apex = [self.apex.x, self.apex.y, self.apex.z].map(f32x8::splat);
+        let lo: [f32x8; 3] = std::array::from_fn(|a| min[a] - apex[a]);
+        let hi: [f32x8; 3] = std::array::from_fn(|a| max[a] - apex[a]);
+        // `apex.abs().max(min.abs()).max(max.abs()).max_element()`: `max` is `maxps(a, b)`
+        // (the second operand where either is NaN), the element fold `max(max(x, z), max(y, z))`.
+        let s: [f32x8; 3] = std::array::from_fn(|a| apex[a].abs().fast_max(min[a].abs()).fast_max(max[a].abs()));
+        let scale = s[0].fast_max(s[2]).fast_max(s[1].fast_max(s[2])) * f32x8::splat(1.0 / 1_048_576.0);
+        let mut keep = 0xff;
+        for n in &self.normals {
+            let pick = |a: usize| if n[a] >= 0.0 { hi[a] } else { lo[a] };
+            // `n.dot(far)`: `(x x' + y y') + z z'`, products rounded apart (no fused add).
+            let dot = (f32x8::splat(n.x) * pick(0) + f32x8::splat(n.y) * pick(1)) + f32x8::splat(n.z) * pick(2);
+            let behind = dot.simd_lt(-scale * f32x8::splat(n.abs().element_sum()));
+            keep &= !behind.to_bitmask() & 0xff;
+        }
+        keep
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,6 +143,40 @@ mod tests {
     }
 
     proptest! {
+        /// Eight boxes at once get the answers each gets alone: random boxes near and far
+        /// from random frustums, some with NaN or infinite corners.
+        #[test]
+        fn eight_boxes_at_once_as_one_at_a_time(
+            apex in prop::array::uniform3(-10.0f32..10.0),
+            x in prop::array::uniform2(-0.5f32..0.5),
+            y in prop::array::uniform2(-0.5f32..0.5),
+            boxes in prop::collection::vec(
+                (prop::array::uniform3(-20.0f32..20.0), prop::array::uniform3(0.0f32..3.0), prop::array::uniform2(0usize..12)),
+                8,
+            ),
+        ) {
+            let f = Frustum::new(Vec3A::from_array(apex), &rect([x[0].min(x[1]), x[0].max(x[1])], [y[0].min(y[1]), y[0].max(y[1])]));
+            // Now and then one coordinate of one corner NaN or infinite.
+            let odd = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+            let boxes: Vec<Aabb> = boxes
+                .iter()
+                .map(|(c, r, k)| {
+                    let c = Vec3A::from_array(*c);
+                    let mut b = Aabb { min: c - Vec3A::from_array(*r), max: c + Vec3A::from_array(*r) };
+                    if k[0] < 6 {
+                        let corner = if k[0] < 3 { &mut b.min } else { &mut b.max };
+                        corner[k[0] % 3] = odd[k[1] % 3];
+                    }
+                    b
+                })
+                .collect();
+            let lanes = |get: fn(&Aabb) -> Vec3A, a: usize| f32x8::new(std::array::from_fn(|i| get(&boxes[i])[a]));
+            let min = [0, 1, 2].map(|a| lanes(|b| b.min, a));
+            let max = [0, 1, 2].map(|a| lanes(|b| b.max, a));
+            let one_by_one = (0..8).filter(|&i| f.may_meet(&boxes[i])).fold(0, |m, i| m | 1 << i);
+            prop_assert_eq!(f.may_meet_lanes(min, max), one_by_one);
+        }
+
         /// A box that a ray of the frustum meets is never culled: rays through random points
         /// of the rectangle (a skewed basis among them) against boxes around a point of the
         /// ray, degenerate (flat or point) boxes among them.

@@ -2,6 +2,8 @@
 //! any leaf box of the tree, found by walking the tree with the frustum in place of a ray.
 //! A tile whose frustum meets none has nothing to hit, and its rays need no traversal.
 
+use wide::f32x8;
+
 use super::kernels::{Lanes, NodeWidth};
 use super::stack::Stack;
 use super::{ChildRef, WideBvh};
@@ -48,8 +50,18 @@ where
             }
             out.nodes += 1;
             let n = &self.nodes[node.node_index() as usize];
+            // The children's boxes eight at a time, then in order as before.
+            let mut kept = 0u32;
+            if W.is_multiple_of(8) {
+                for first in (0..W).step_by(8) {
+                    let row = |r: usize| f32x8::new(n.bounds[r][first..first + 8].try_into().expect("eight children"));
+                    kept |= frustum.may_meet_lanes([row(0), row(1), row(2)], [row(3), row(4), row(5)]) << first;
+                }
+            } else {
+                kept = (0..W).filter(|&i| frustum.may_meet(&n.child_bounds(i))).fold(0, |m, i| m | 1 << i);
+            }
             for (i, &child) in n.child.iter().enumerate() {
-                if child == ChildRef::EMPTY || !frustum.may_meet(&n.child_bounds(i)) {
+                if child == ChildRef::EMPTY || kept & 1 << i == 0 {
                     continue;
                 }
                 if child.is_leaf() {
