@@ -17,6 +17,11 @@ obj`: its meshes in world space, placed and normalised as the course did, and a 
 the camera and the lights), the others read that OBJ, the exported trackball camera (by default
 fov 50 vertical, distance 3, rotation (20, 20, 0)), the exported point lights, grey diffuse, hard
 shadows, one sample at each pixel's centre, and `--threads` threads (default: all cores).
+rayscope renders the course scene itself (each material's Phong shading, the teapot's texture,
+mirror reflections): more work than the peers do. The row "rayscope, the peers' work" renders
+the exported scene file instead with Lambert shading and no reflections or textures (the
+materials' own diffuse colours, lights without distance falloff: the same cost as the peers'
+grey Lambertian), and its column compares that with each peer.
 
 Timing: rayscope's render is the fastest of `rayscope render --repeat RUNS` in one process (its
 later renders run with warm caches and threads); Mitsuba's scene is loaded once per variant and
@@ -53,8 +58,9 @@ SIZE = 800
 class Scene:
     """A scene as rayscope exported it: world-space triangles, camera and point lights."""
 
-    def __init__(self, name, obj, verts, faces, camera, lights):
+    def __init__(self, name, toml, obj, verts, faces, camera, lights):
         self.name = name
+        self.toml = toml
         self.obj = obj
         self.verts = verts
         self.faces = faces
@@ -103,7 +109,8 @@ def export_scene(binary, assets, name, workdir):
     out = os.path.join(workdir, name)
     subprocess.run([binary, "scenes", "--export", name, "--format", "obj", out],
                    env=dict(os.environ, RAYSCOPE_ASSETS=assets), check=True, capture_output=True, text=True)
-    with open(os.path.join(out, name + ".toml"), "rb") as f:
+    toml = os.path.join(out, name + ".toml")
+    with open(toml, "rb") as f:
         desc = tomllib.load(f)
     cam = desc.get("camera", {})
     if cam.get("kind", "trackball") != "trackball":
@@ -113,15 +120,22 @@ def export_scene(binary, assets, name, workdir):
         sys.exit(f"{name}: only point lights are compared here")
     obj = os.path.join(out, name + ".obj")
     verts, faces = load_obj(obj)
-    return Scene(name, obj, verts, faces, trackball(cam), lights)
+    return Scene(name, toml, obj, verts, faces, trackball(cam), lights)
 
 
-def run_rayscope(binary, assets, scene, runs, threads, images):
+def run_rayscope(binary, assets, scene, runs, threads, images, peers_work=False):
+    """rayscope's course scene, or with `peers_work` the peers' work: the exported scene file
+    (the OBJ the peers read) shaded Lambertian, without reflections or textures."""
+    if peers_work:
+        what, tag = [scene.toml, "--shading-model", "lambert", "--no-reflections", "--no-textures"], "-peers-work"
+    else:
+        what, tag = [scene.name], ""
+
     def render(repeat):
         before = os.times()
         err = subprocess.run(
-            [binary, "render", scene.name, "--assets", assets, "--threads", str(threads),
-             "-o", os.path.join(images or tempfile.gettempdir(), f"{scene.name}-rayscope.png"),
+            [binary, "render", *what, "--assets", assets, "--threads", str(threads),
+             "-o", os.path.join(images or tempfile.gettempdir(), f"{scene.name}-rayscope{tag}.png"),
              "--quiet", "--repeat", str(repeat)],
             capture_output=True, text=True, check=True,
         ).stderr
@@ -249,8 +263,9 @@ def main():
     ap.add_argument("--scenes", default="dragon", help="comma-separated rayscope scene names")
     ap.add_argument("--runs", type=int, default=5, help="renders per renderer; the fastest counts")
     ap.add_argument("--threads", type=int, default=os.cpu_count(), help="threads of every renderer")
-    ap.add_argument("--only", default="rayscope,povray,mitsuba-scalar,mitsuba-llvm",
-                    help="comma-separated renderers (rayscope always runs: the ratios need it)")
+    ap.add_argument("--only", default="rayscope,rayscope-peers-work,povray,mitsuba-scalar,mitsuba-llvm",
+                    help="comma-separated renderers (rayscope always runs: the ratios need it; "
+                         "rayscope-peers-work is rayscope doing the peers' work)")
     ap.add_argument("--images", help="folder to keep each renderer's image in")
     a = ap.parse_args()
     only = set(a.only.split(","))
@@ -265,8 +280,8 @@ def main():
     ]
     print(f"{SIZE}x{SIZE}, 1 sample per pixel, {a.threads} threads; fastest of {a.runs} renders.\n")
     print("| scene | renderer | load (ms) | acceleration build (ms) | render (ms) | render: ours / theirs "
-          "| CPU ms per render | CPU: ours / theirs |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|")
+          "| render: ours doing their work / theirs | CPU ms per render | CPU: ours / theirs |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
     fmt = lambda x: "–" if x != x else f"{x:.1f}"
     with tempfile.TemporaryDirectory() as work:
         for name in a.scenes.split(","):
@@ -275,19 +290,28 @@ def main():
             ours = run_rayscope(a.rayscope, a.assets, scene, a.runs, a.threads, a.images)
             print(f"{label}: rayscope {ours}", file=sys.stderr)
             print(f"| {label} | rayscope | {fmt(ours['load'])} | {fmt(ours['build'])} | {fmt(ours['render'])} | 1.00 "
-                  f"| {fmt(ours['cpu'])} | 1.00 |")
+                  f"| | {fmt(ours['cpu'])} | 1.00 |")
+            same = None
+            if "rayscope-peers-work" in only:
+                same = run_rayscope(a.rayscope, a.assets, scene, a.runs, a.threads, a.images, peers_work=True)
+                print(f"{label}: rayscope, the peers' work {same}", file=sys.stderr)
+                print(f"| {label} | rayscope, the peers' work (Lambert, no reflections, no textures) "
+                      f"| {fmt(same['load'])} | {fmt(same['build'])} | {fmt(same['render'])} "
+                      f"| {ours['render'] / same['render']:.2f} | 1.00 | {fmt(same['cpu'])} "
+                      f"| {ours['cpu'] / same['cpu']:.2f} |", flush=True)
             for key, title, fn in peers:
                 if key not in only:
                     continue
                 r = fn(scene, work)
                 print(f"{label}: {title}: {'not installed' if r is None else r}", file=sys.stderr)
                 if r is None:
-                    print(f"| {label} | {title} | not installed | | | | | |")
+                    print(f"| {label} | {title} | not installed | | | | | | |")
                     continue
                 ratio = ours["render"] / r["render"]
+                same_ratio = f"{same['render'] / r['render']:.2f}" if same else "–"
                 cpu = f"{ours['cpu'] / r['cpu']:.2f}" if r["cpu"] == r["cpu"] else "–"
                 print(f"| {label} | {title} | {fmt(r['load'])} | {fmt(r['build'])} | {fmt(r['render'])} | {ratio:.2f} "
-                      f"| {fmt(r['cpu'])} | {cpu} |", flush=True)
+                      f"| {same_ratio} | {fmt(r['cpu'])} | {cpu} |", flush=True)
     if "mitsuba-llvm" in only:
         print(f"\nLLVM library loaded: {libllvm_in_use()}", file=sys.stderr)
 
