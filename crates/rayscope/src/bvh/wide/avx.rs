@@ -83,6 +83,17 @@ impl NodeTest<8> for Avx2Node8 {
     }
 
     #[inline(always)]
+    fn farther_and_tied(&self, near: &[f32; 8], x: f32) -> (u32, u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the CPU has AVX2 (`self` was made with its token); `near` holds eight floats.
+        unsafe {
+            let (v, x) = (_mm256_loadu_ps(near.as_ptr()), _mm256_set1_ps(x));
+            let gt = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(v, x)) as u32;
+            (gt, _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(v, x)) as u32)
+        }
+    }
+
+    #[inline(always)]
     fn intersect_pair(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
         intersect_pair_avx2(cpu, r, a, b, t_min, t_max)
     }
@@ -235,6 +246,16 @@ impl NodeTest<16> for Avx512Node16 {
             );
             _mm512_storeu_ps(d.as_mut_ptr(), near);
             (d, u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far)))
+        }
+    }
+
+    #[inline(always)]
+    fn farther_and_tied(&self, near: &[f32; 16], x: f32) -> (u32, u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); `near` holds sixteen floats.
+        unsafe {
+            let (v, x) = (_mm512_loadu_ps(near.as_ptr()), _mm512_set1_ps(x));
+            (u32::from(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(v, x)), u32::from(_mm512_cmp_ps_mask::<_CMP_EQ_OQ>(v, x)))
         }
     }
 

@@ -148,6 +148,16 @@ pub trait NodeTest<const W: usize>: Sized {
     /// per ray, as a branch per node measured 8% slower.
     fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
+    /// The lanes of `near` (entry distances from [`NodeTest::test`]) greater than `x`, and
+    /// those equal to it, as bit masks (a NaN lane is neither): the traversal's ordering of a
+    /// node's hit children by rank.
+    #[inline(always)]
+    fn farther_and_tied(&self, near: &[f32; W], x: f32) -> (u32, u32) {
+        near.iter()
+            .enumerate()
+            .fold((0, 0), |(gt, eq), (j, &n)| (gt | u32::from(n > x) << j, eq | u32::from(n == x) << j))
+    }
+
     /// Two packed blocks at once, as the packed 4-wide test (`Tri4::intersect`) gives them:
     /// lanes 0..4 are `a`'s, 4..8 are `b`'s. Both are tested against `[t_min, t_max]`. It
     /// needs the CPU's token and the ray's triangle set-up only, not a node test: a packet's
@@ -413,6 +423,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     use crate::bvh::wide::avx::{Avx2Node8, Avx512Node16};
     use crate::bvh::wide::simd::{Avx2, Avx512, Baseline};
+    use crate::bvh::wide::traverse::{far_to_near, sort_far_to_near};
     use crate::bvh::wide::{ChildRef, WideNode};
     use crate::geometry::aabb::safe_inv_dir;
     use crate::math::Vec3A;
@@ -542,6 +553,49 @@ mod tests {
             hits += slab_case::<16, Portable16, Simd16>(&mut rng, avx512);
         }
         assert!(hits > 1500, "the random boxes are hit often enough to test something ({hits})");
+    }
+
+    /// The traversal's rank placement of a node's hit children (`far_to_near`, by
+    /// [`NodeTest::farther_and_tied`] on each path) gives the insertion sort's order, entry for
+    /// entry: distances from a few values (ties), some of them NaN, negative, zero of either
+    /// sign or infinite, and random sets of hit lanes.
+    #[test]
+    fn children_are_placed_in_the_insertion_sorts_order() {
+        #[cfg(target_arch = "x86_64")]
+        let (avx2, avx512) = (Avx2::new(), Avx512::new());
+        #[cfg(not(target_arch = "x86_64"))]
+        let (avx2, avx512) = (Avx2::new().map(Baseline::from), Avx512::new().map(Baseline::from));
+        let ray = Ray::new(Vec3A::ZERO, Vec3A::X);
+        let inv = safe_inv_dir(ray.dir);
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        for _ in 0..4000 {
+            order_case::<8, _>(&mut rng, &Portable8::new(Baseline, &ray, inv, 1.0));
+            order_case::<16, _>(&mut rng, &Portable16::new(Baseline, &ray, inv, 1.0));
+            if let Some(cpu) = avx2 {
+                order_case::<8, _>(&mut rng, &Simd8::new(cpu, &ray, inv, 1.0));
+            }
+            if let Some(cpu) = avx512 {
+                order_case::<16, _>(&mut rng, &Simd16::new(cpu, &ray, inv, 1.0));
+            }
+        }
+    }
+
+    fn order_case<const W: usize, T: NodeTest<W>>(rng: &mut TestRng, boxes: &T) {
+        const VALUES: [f32; 8] = [0.0, -0.0, 0.5, 1.0, 2.0, -1.0, f32::INFINITY, f32::NAN];
+        let nan = rng.random::<u32>() % 4 == 0;
+        let near: [f32; W] = std::array::from_fn(|_| VALUES[rng.random::<u32>() as usize % if nan { 8 } else { 7 }]);
+        let child: [ChildRef; W] = std::array::from_fn(|i| ChildRef::node(i as u32 + 1));
+        let hit = (rng.random::<u32>() & ((1u64 << W) - 1) as u32).max(1);
+        let mut order = [(ChildRef::ROOT, 0.0f32); W];
+        let mut visited = 0u32;
+        let k = far_to_near(boxes, &child, &near, hit, &mut order, |c| visited |= 1 << (c.node_index() - 1));
+        let mut expected: Vec<(ChildRef, f32)> =
+            (0..W).filter(|i| hit & 1 << i != 0).map(|i| (child[i], near[i])).collect();
+        sort_far_to_near(&mut expected, |e| e.1);
+        assert_eq!(k, expected.len());
+        assert_eq!(visited, hit, "every hit child is visited once");
+        let bits = |e: &[(ChildRef, f32)]| e.iter().map(|(c, n)| (*c, n.to_bits())).collect::<Vec<_>>();
+        assert_eq!(bits(&order[..k]), bits(&expected), "near {near:?}, hit {hit:#x}");
     }
 
     /// One random node and ray for [`slab_test_is_the_same_on_every_path`]: the portable test

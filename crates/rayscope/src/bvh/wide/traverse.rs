@@ -90,6 +90,48 @@ pub(super) fn sort_far_to_near<E: Copy>(order: &mut [E], near: impl Fn(&E) -> f3
     }
 }
 
+/// Put the hit children `hit` of a node (references `child`, entry distances `near`) into
+/// `order` farthest first, calling `visit` on each as it is placed; returns their number.
+///
+/// Each child goes straight to its place by its rank, the number of hit children farther
+/// than it or as far in a lower lane (two vector compares, [`NodeTest::farther_and_tied`]):
+/// no branch on the distances, which an insertion sort mispredicted on incoherent rays. That
+/// is the order [`sort_far_to_near`] gives the children listed by lane (it is stable), and
+/// without NaN distances the ranks are `0..k`, each once; with one, the insertion sort
+/// orders them as before.
+#[inline(always)]
+pub(super) fn far_to_near<const W: usize, T: NodeTest<W>>(
+    boxes: &T,
+    child: &[ChildRef; W],
+    near: &[f32; W],
+    hit: u32,
+    order: &mut [(ChildRef, f32); W],
+    mut visit: impl FnMut(ChildRef),
+) -> usize {
+    let k = hit.count_ones() as usize;
+    let mut placed = 0u32;
+    let mut left = hit;
+    while left != 0 {
+        let i = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let (farther, tied) = boxes.farther_and_tied(near, near[i]);
+        let rank = (hit & (farther | tied & ((1 << i) - 1))).count_ones() as usize;
+        placed |= 1 << rank;
+        order[rank] = (child[i], near[i]);
+        visit(child[i]);
+    }
+    if u64::from(placed) != (1u64 << k) - 1 {
+        let mut left = hit;
+        for e in &mut order[..k] {
+            let i = left.trailing_zeros() as usize;
+            left &= left - 1;
+            *e = (child[i], near[i]);
+        }
+        sort_far_to_near(&mut order[..k], |e| e.1);
+    }
+    k
+}
+
 impl<const W: usize> WideBvh<W>
 where
     Lanes<W>: NodeWidth<W>,
@@ -295,17 +337,8 @@ where
                     }
                     // Visit the nearest hit child now; push the others, farthest first.
                     let mut order = [(ChildRef::ROOT, 0.0f32); W];
-                    order[0] = (node.child[first], near[first]);
-                    self.prefetch(node.child[first]);
-                    let mut k = 1;
-                    while mask != 0 {
-                        let i = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        order[k] = (node.child[i], near[i]);
-                        self.prefetch(node.child[i]);
-                        k += 1;
-                    }
-                    sort_far_to_near(&mut order[..k], |e| e.1);
+                    let hit = mask | 1 << first;
+                    let k = far_to_near(&boxes, &node.child, &near, hit, &mut order, |c| self.prefetch(c));
                     for &e in &order[..k - 1] {
                         stack.push(e);
                     }
