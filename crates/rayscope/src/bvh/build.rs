@@ -438,11 +438,14 @@ pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: V
 /// [`fill_bins`] on this thread, into `even` (empty bins).
 #[inline(always)]
 fn fill_bins_here<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, nb: usize, even: &mut Bins<N>) {
+    const { assert!(N.is_power_of_two()) };
     let top = Vec3A::splat((nb - 1) as f32);
     let add = |bins: &mut Bins<N>, p: &BuildPrim| {
         let idx = bin_indices((p.centroid() - lo) * scale, top);
         for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            let b = &mut axis_bins[idx[axis] as usize];
+            // The index is at most `nb - 1 < N`; the mask (N is a power of two) leaves it
+            // as it is and spares a bounds check per axis.
+            let b = &mut axis_bins[idx[axis] as usize & (N - 1)];
             b.bounds = b.bounds.union(p.bounds());
             b.count += 1;
         }
@@ -516,24 +519,52 @@ fn find_split_in<const N: usize>(
     let mut bins = [[EMPTY_BIN; N]; 3];
     fill_bins::<N>(prims, centroids.min, scale, nb, &mut bins);
     // Candidates are ranked by area-weighted block counts; the division by the parent's area
-    // (which does not change the ranking) is done once, for the winner. The best so far is
-    // kept in three scalars updated by selects: an `Option` compared per candidate lived on
-    // the stack and branched, a fifth of the build's time.
-    let (mut best_weight, mut best_axis, mut best_bin) = (f32::INFINITY, 0, 0);
+    // (which does not change the ranking) is done once, for the winner. Each plane's weight
+    // is stored (infinite where the plane is no split: nothing on one side) and the
+    // cheapest found afterwards: keeping the best so far while sweeping made every plane wait
+    // on the previous one's compare and select, a chain that was a third of the sweep's time.
+    let mut weights = [[f32::INFINITY; N]; 3];
     sweep(&bins, extent, nb, params.block_size, |plane| {
-        // A plane with nothing on one side is no split.
-        let better = plane.left != 0 && plane.right != 0 && plane.weight < best_weight;
-        best_weight = if better { plane.weight } else { best_weight };
-        best_axis = if better { plane.axis } else { best_axis };
-        best_bin = if better { plane.bin } else { best_bin };
+        let splits = plane.left != 0 && plane.right != 0;
+        weights[plane.axis][plane.bin] = if splits { plane.weight } else { f32::INFINITY };
     });
-    (best_weight < f32::INFINITY).then(|| Split {
-        axis: best_axis,
-        bin: best_bin,
-        lo: centroids.min[best_axis],
-        scale: scale[best_axis],
-        cost: sah_cost(best_weight, parent_area, params),
+    let best = first_min(&weights)?;
+    Some(Split {
+        axis: best.axis,
+        bin: best.bin,
+        lo: centroids.min[best.axis],
+        scale: scale[best.axis],
+        cost: sah_cost(best.weight, parent_area, params),
     })
+}
+
+/// The cheapest plane of a sweep.
+struct BestPlane {
+    axis: usize,
+    bin: usize,
+    weight: f32,
+}
+
+/// The first (in axis, then bin order) of the smallest finite `weights`, NaN ones left out:
+/// the plane a sweep keeping the best so far by a strict `<` would end with. `None` when
+/// every weight is infinite or NaN.
+#[inline(always)]
+fn first_min<const N: usize>(weights: &[[f32; N]; 3]) -> Option<BestPlane> {
+    const { assert!(N.is_multiple_of(4)) };
+    let flat = weights.as_flattened();
+    // Where a weight is NaN, `min` with it first returns the other operand (SSE's rule, and
+    // `f32::min`'s on glam's scalar path), so a NaN never becomes the least.
+    let least = flat.chunks_exact(4).fold(Vec4::INFINITY, |m, c| Vec4::from_slice(c).min(m)).min_element();
+    if least == f32::INFINITY {
+        return None;
+    }
+    let at = Vec4::splat(least);
+    let first = flat.chunks_exact(4).enumerate().find_map(|(k, c)| {
+        let mask = Vec4::from_slice(c).cmpeq(at).bitmask();
+        (mask != 0).then(|| 4 * k + mask.trailing_zeros() as usize)
+    })?;
+    // That plane's own weight: `least` may be the other zero.
+    Some(BestPlane { axis: first / N, bin: first % N, weight: flat[first] })
 }
 
 /// The SAH cost of a split whose area-weighted block count is `weight`, under a parent of
@@ -620,4 +651,45 @@ fn median_split(prims: &mut [BuildPrim], centroids: &Aabb) -> usize {
     let mid = prims.len() / 2;
     prims.select_nth_unstable_by(mid, |a, b| a.centroid_on(axis).total_cmp(&b.centroid_on(axis)));
     mid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What the sweep's callers kept before [`first_min`]: the best so far by a strict `<`.
+    fn scan<const N: usize>(weights: &[[f32; N]; 3]) -> Option<(usize, usize, f32)> {
+        let mut best: Option<(usize, usize, f32)> = None;
+        for (axis, row) in weights.iter().enumerate() {
+            for (bin, &w) in row.iter().enumerate() {
+                if w < best.map_or(f32::INFINITY, |b| b.2) {
+                    best = Some((axis, bin, w));
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn first_min_is_the_sequential_scans_choice() {
+        // Few distinct values, so ties across bins and axes are common; NaN and infinities.
+        let values = [0.0, -0.0, 1.0, 2.5, 1e30, f32::INFINITY, f32::NAN, f32::MIN_POSITIVE];
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            values[(state >> 40) as usize % values.len()]
+        };
+        for _ in 0..20_000 {
+            let mut w = [[f32::INFINITY; 16]; 3];
+            w.iter_mut().flatten().for_each(|x| *x = next());
+            let got = first_min(&w).map(|b| (b.axis, b.bin, b.weight));
+            let want = scan(&w);
+            assert_eq!(got.map(|g| (g.0, g.1)), want.map(|g| (g.0, g.1)), "{w:?}");
+            assert_eq!(got.map(|g| g.2.to_bits()), want.map(|g| g.2.to_bits()), "{w:?}");
+        }
+        assert!(first_min(&[[f32::INFINITY; 8]; 3]).is_none());
+        assert!(first_min(&[[f32::NAN; 8]; 3]).is_none());
+    }
 }
