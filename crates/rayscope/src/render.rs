@@ -520,23 +520,34 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// traced miss is (the same bits, the same ray counts), without making or tracing a ray.
     fn fill_missed<A: PixelAccumulator>(&self, run: PixelRun<A>, miss: Color) -> Tally {
         let camera_ray = RayCounts { primary_and_secondary: 1, shadow: 0 };
-        self.per_sample(run, |_, _| (miss, camera_ray))
+        // Checked once, not per sample: every sample adds what `finite_or_black` makes of
+        // `miss`, and counts as dropped if `miss` was.
+        let mut bad = 0;
+        let miss = finite_or_black(miss, &mut bad);
+        self.per_sample(run, |_, _, dropped| {
+            *dropped += bad;
+            (miss, camera_ray)
+        })
     }
 
     /// Add the pass's samples to `run` one pixel and one sample at a time (pixels at
     /// different sample counts, or a moving camera).
     fn sample_alone<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
         let y = run.y;
-        self.per_sample(run, |x, k| self.sample_pixel(x, y, k, &mut NoRecorder))
+        self.per_sample(run, |x, k, dropped| {
+            let (c, rays) = self.sample_pixel(x, y, k, &mut NoRecorder);
+            (finite_or_black(c, dropped), rays)
+        })
     }
 
     /// Add the pass's samples to `run` pixel by pixel, sample by sample, sample `k` of the
-    /// pixel in column `x` being `sample(x, k)`: its colour and the rays it cast.
+    /// pixel in column `x` being `sample(x, k, dropped)`: its colour, finite (it counts in
+    /// `dropped` a sample it made black: [`finite_or_black`]), and the rays it cast.
     #[inline(always)]
     fn per_sample<A: PixelAccumulator>(
         &self,
         run: PixelRun<A>,
-        mut sample: impl FnMut(u32, u32) -> (Color, RayCounts),
+        mut sample: impl FnMut(u32, u32, &mut u64) -> (Color, RayCounts),
     ) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let mut total = Tally::default();
@@ -544,8 +555,8 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         for (x, (sum, count)) in (x0..).zip(sums.iter_mut().zip(counts.iter_mut())) {
             let last = sample_range(*count, self.pass);
             for k in *count..last {
-                let (c, r) = sample(x, k);
-                sum.add(finite_or_black(c, &mut total.dropped), row + x, residuals);
+                let (c, r) = sample(x, k, &mut total.dropped);
+                sum.add(c, row + x, residuals);
                 total.rays.add(r);
             }
             *count = last;
