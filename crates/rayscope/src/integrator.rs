@@ -243,8 +243,11 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             // The course's "shading off" view: the diffuse colour as it is.
             return si.kd;
         }
-        let mut color =
-            if self.models { self.direct_by_model(ray, si, ctx) } else { self.direct::<false, R>(ray, si, ctx) };
+        let mut color = Color::from(if self.models {
+            self.direct_by_model(ray, si, ctx)
+        } else {
+            self.direct::<false, R>(ray, si, ctx)
+        });
         let recurse = depth < s.max_depth;
         let transmits = recurse && s.transparency && mat.transparency < 1.0;
         if R::RECORDS {
@@ -350,7 +353,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// beside Phong's, it made `shade` too large to be inlined into the camera rays' loop,
     /// which then cost the default render 0.6% more instructions.
     #[inline(never)]
-    fn direct_by_model<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, ctx: &mut PathContext<R>) -> Color {
+    fn direct_by_model<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, ctx: &mut PathContext<R>) -> Vec3A {
         self.direct::<true, R>(ray, si, ctx)
     }
 
@@ -360,12 +363,17 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// that many stratified samples, each shaded as a point light of the light's colour there,
     /// and contributes their mean. `MODELS`: whether the scene has surfaces shaded by other
     /// models than Phong (else every surface is Phong's, known at compile time).
+    ///
+    /// The colour comes back as a [`Vec3A`], the same three sums: a call returns it through
+    /// memory, and a 16-byte vector is stored whole, so the caller's loads of it are forwarded
+    /// from the store. A [`Color`] was stored as `x` and `y, z` and read back as `x, y` and
+    /// `z`, a load no store forwards (1% of the Cornell box's render).
     fn direct<const MODELS: bool, R: RayRecorder>(
         &self,
         ray: &Ray,
         si: &SurfaceInteraction,
         ctx: &mut PathContext<R>,
-    ) -> Color {
+    ) -> Vec3A {
         let mut sum = Color::ZERO;
         let n = self.settings.light_samples;
         // Resolved once per hit.
@@ -401,7 +409,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
                 acc / n as f32
             });
         }
-        sum
+        Vec3A::from(sum)
     }
 
     /// One light point as a point light: the shading model's terms times the light's colour
