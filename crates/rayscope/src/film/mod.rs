@@ -519,11 +519,8 @@ mod tests {
     /// any sign and payload).
     #[test]
     fn the_bit_test_is_is_finite() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 32) as u32
-        };
+        let mut rng = crate::sampler::Pcg32::new(0x9e37_79b9_7f4a_7c15, 0);
+        let mut next = || rng.next_u32();
         let edges = [0x7f80_0000, 0xff80_0000, 0x7fc0_0001, 0xffff_ffff, 0x7f7f_ffff, 0xff7f_ffff, 0x8000_0000, 1, 0];
         for n in 0..200_000u32 {
             let mut bits = [next(), next(), next()];
