@@ -14,7 +14,7 @@ use crate::light::{Light, LightSample};
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
 use crate::record::{
-    LightTerm, RayKind, RayRecorder, RecordedHit, RecordedTraversal, ShadowEvent, SkipReason, SkippedLight,
+    LightTerm, NoRecorder, RayKind, RayRecorder, RecordedHit, RecordedTraversal, ShadowEvent, SkipReason, SkippedLight,
     StoppedBranch, SurfaceFactors,
 };
 use crate::sampler::{PixelSampler, Strata2, stratum_1d};
@@ -183,6 +183,106 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         cone: C,
         ctx: &mut PathContext<R>,
     ) -> Color {
+        self.begin_ray(ray, log, kind, depth, weight, ctx);
+        let color = match hit {
+            None => self.miss(ray, ctx),
+            Some(hit) => {
+                let seen = self.arrive(ray, hit, cone, ctx.recorder);
+                self.shade_seen(ray, &seen, depth, weight, FirstShadows::NONE, ctx)
+            }
+        };
+        ctx.recorder.end_ray(color);
+        color
+    }
+
+    /// Whether the shadow rays of camera packets' hits are traced ahead of shading, as packets
+    /// ([`Integrator::first_shadows`]): with shading and shadows on, in an opaque scene whose
+    /// lights (at most eight) are each shaded from one point (point lights, or no light
+    /// samples), so that each hit's first shadow ray towards each light is known beforehand;
+    /// and in a scene of [`SHADOWS_AHEAD_PRIMS`] primitives or more.
+    pub fn shadows_ahead(&self) -> bool {
+        let s = self.settings;
+        let one_point = |l: &Light| s.light_samples == 0 || matches!(l, Light::Point { .. });
+        s.shading
+            && s.shadows
+            && self.scene.prim_count() >= SHADOWS_AHEAD_PRIMS
+            && !self.scene.has_transparency
+            && (1..=FirstShadows::LIGHTS).contains(&self.scene.lights.len())
+            && self.scene.lights.iter().all(one_point)
+    }
+
+    /// What camera ray `ray` sees at its closest hit `hit` (what [`Scene::intersect`] gives),
+    /// found as [`Integrator::li_hit`] finds it, for [`Integrator::li_seen`].
+    #[inline(always)]
+    pub fn seen(&self, ray: &Ray, hit: Option<Hit>) -> Option<Seen<C>> {
+        hit.map(|hit| self.arrive(ray, hit, self.camera_cone, &mut NoRecorder))
+    }
+
+    /// The shadow ray each hit of a packet of camera rays (`rays`, with what they see, `seen`)
+    /// casts first towards each light, traced as one packet per light: what
+    /// [`Integrator::li_seen`] then shades them with. The same rays, made by the same rule,
+    /// and the same answers as traced one by one while shading; where rays from neighbouring
+    /// pixels converge on a light, one walk of the tree serves them all. Only for
+    /// [`Integrator::shadows_ahead`].
+    pub fn first_shadows(&self, rays: &[Ray], seen: &[Option<Seen<C>>; PACKET]) -> [FirstShadows; PACKET] {
+        let mut ahead = [FirstShadows::NONE; PACKET];
+        for (l, light) in self.scene.lights.iter().enumerate().take(FirstShadows::LIGHTS) {
+            // Lanes beyond `k` are never traced.
+            let mut shadow = [rays[0]; PACKET];
+            let mut lane = [0; PACKET];
+            let mut k = 0;
+            for (i, (ray, seen)) in rays.iter().zip(seen).enumerate() {
+                let Some(Seen { si, .. }) = seen else { continue };
+                let ls = light.center_sample(si.point);
+                if faces(si, &ls, si.shading_normal.dot(ls.wi)) {
+                    shadow[k] = self
+                        .scene
+                        .light_visibility(si, light, 1, &self.shading, |vis| vis.shadow_ray(si, &ls, ray.time));
+                    lane[k] = i;
+                    k += 1;
+                }
+            }
+            let blocked = self.scene.blocked_packet(&shadow[..k]);
+            for (j, &i) in lane[..k].iter().enumerate() {
+                ahead[i].traced |= 1 << l;
+                ahead[i].blocked |= ((blocked >> j & 1) as u8) << l;
+            }
+        }
+        ahead
+    }
+
+    /// [`Integrator::li_hit`] for a camera ray whose hit has been seen
+    /// ([`Integrator::seen`]) and whose first shadow rays were traced ahead (`ahead`): the
+    /// same colour, the same ray counts.
+    #[inline(always)]
+    pub fn li_seen<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        seen: Option<&Seen<C>>,
+        ahead: FirstShadows,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
+        self.begin_ray(ray, None, RayKind::Camera, 0, Color::ONE, ctx);
+        let color = match seen {
+            None => self.miss(ray, ctx),
+            Some(seen) => self.shade_seen(ray, seen, 0, Color::ONE, ahead, ctx),
+        };
+        ctx.recorder.end_ray(color);
+        color
+    }
+
+    /// A ray's start: told to the recorder (with its weight and, from `log`, what its
+    /// traversal entered) and counted.
+    #[inline(always)]
+    fn begin_ray<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        log: Option<&TraversalLog>,
+        kind: RayKind,
+        depth: u32,
+        weight: Color,
+        ctx: &mut PathContext<R>,
+    ) {
         ctx.recorder.begin_ray(kind, depth, ray);
         if R::RECORDS {
             ctx.recorder.weight(weight);
@@ -191,42 +291,63 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             }
         }
         ctx.counts.primary_and_secondary += 1;
-        let color = match hit {
-            None => {
-                ctx.recorder.hit(None);
-                self.sky.miss(ray, self.settings, ctx.recorder)
+    }
+
+    /// The colour of a ray that hits nothing.
+    #[inline(always)]
+    fn miss<R: RayRecorder>(&self, ray: &Ray, ctx: &mut PathContext<R>) -> Color {
+        ctx.recorder.hit(None);
+        self.sky.miss(ray, self.settings, ctx.recorder)
+    }
+
+    /// What a ray of footprint `cone` sees at its closest hit `hit`: the surface there (its
+    /// texture read at the cone's width where cones are carried, told to `rec`) and the cone
+    /// arrived there.
+    #[inline(always)]
+    fn arrive<R: RayRecorder>(&self, ray: &Ray, hit: Hit, cone: C, rec: &mut R) -> Seen<C> {
+        let cone = cone.arrive(hit.t, || self.scene.curvature(&hit, &self.shading));
+        let si = if C::CONES {
+            let seen = self.scene.surface_in_cone(ray, &hit, &self.shading, cone.width());
+            if let Some(lod) = &seen.lod {
+                rec.texture_lod(lod);
             }
-            Some(hit) => {
-                let cone = cone.arrive(hit.t, || self.scene.curvature(&hit, &self.shading));
-                let si = if C::CONES {
-                    let seen = self.scene.surface_in_cone(ray, &hit, &self.shading, cone.width());
-                    if let Some(lod) = &seen.lod {
-                        ctx.recorder.texture_lod(lod);
-                    }
-                    seen.si
-                } else {
-                    self.scene.surface(ray, &hit, &self.shading)
-                };
-                if R::RECORDS {
-                    ctx.recorder.hit(Some(RecordedHit {
-                        t: hit.t,
-                        point: si.point.to_array(),
-                        prim: self.scene.prim_id(&hit),
-                        material: si.material,
-                        geo_normal: si.geo_normal.to_array(),
-                        shading_normal: si.shading_normal.to_array(),
-                    }));
-                }
-                self.shade(ray, &si, depth, weight, cone, ctx)
-            }
+            seen.si
+        } else {
+            self.scene.surface(ray, &hit, &self.shading)
         };
-        ctx.recorder.end_ray(color);
-        color
+        Seen { hit, si, cone }
+    }
+
+    /// The colour a ray of `weight` brings back from what it sees (`seen`), told to the
+    /// recorder; `ahead`: the shadow rays already traced from there.
+    #[inline(always)]
+    fn shade_seen<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        seen: &Seen<C>,
+        depth: u32,
+        weight: Color,
+        ahead: FirstShadows,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
+        let Seen { hit, si, cone } = seen;
+        if R::RECORDS {
+            ctx.recorder.hit(Some(RecordedHit {
+                t: hit.t,
+                point: si.point.to_array(),
+                prim: self.scene.prim_id(hit),
+                material: si.material,
+                geo_normal: si.geo_normal.to_array(),
+                shading_normal: si.shading_normal.to_array(),
+            }));
+        }
+        self.shade(ray, si, depth, weight, *cone, ahead, ctx)
     }
 
     // Inlined into `trace` as main's compiler chose to: with the shading models it grew past
     // the inliner's limit, and the camera packets' loop (`Pass::sample_run`) that calls it
     // then cost 0.4% more instructions.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn shade<R: RayRecorder>(
         &self,
@@ -235,6 +356,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         depth: u32,
         weight: Color,
         cone: C,
+        ahead: FirstShadows,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let s = self.settings;
@@ -244,9 +366,9 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             return si.kd;
         }
         let mut color = Color::from(if self.models {
-            self.direct_by_model(ray, si, ctx)
+            self.direct_by_model(ray, si, ahead, ctx)
         } else {
-            self.direct::<false, R>(ray, si, ctx)
+            self.direct::<false, R>(ray, si, ahead, ctx)
         });
         let recurse = depth < s.max_depth;
         let transmits = recurse && s.transparency && mat.transparency < 1.0;
@@ -353,8 +475,14 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// beside Phong's, it made `shade` too large to be inlined into the camera rays' loop,
     /// which then cost the default render 0.6% more instructions.
     #[inline(never)]
-    fn direct_by_model<R: RayRecorder>(&self, ray: &Ray, si: &SurfaceInteraction, ctx: &mut PathContext<R>) -> Vec3A {
-        self.direct::<true, R>(ray, si, ctx)
+    fn direct_by_model<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        si: &SurfaceInteraction,
+        ahead: FirstShadows,
+        ctx: &mut PathContext<R>,
+    ) -> Vec3A {
+        self.direct::<true, R>(ray, si, ahead, ctx)
     }
 
     /// Direct lighting from every light by the surface's shading model (Phong unless set),
@@ -367,11 +495,13 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// The colour comes back as a [`Vec3A`], the same three sums: a call returns it through
     /// memory, and a 16-byte vector is stored whole, so the caller's loads of it are forwarded
     /// from the store. A [`Color`] was stored as `x` and `y, z` and read back as `x, y` and
-    /// `z`, a load no store forwards (1% of the Cornell box's render).
+    /// `z`, a load no store forwards (1% of the Cornell box's render). `ahead`: the shadow
+    /// rays towards lights' single points already traced from `si`.
     fn direct<const MODELS: bool, R: RayRecorder>(
         &self,
         ray: &Ray,
         si: &SurfaceInteraction,
+        ahead: FirstShadows,
         ctx: &mut PathContext<R>,
     ) -> Vec3A {
         let mut sum = Color::ZERO;
@@ -386,7 +516,8 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             if n == 0 || matches!(light, Light::Point { .. }) {
                 let center = light.center_sample(si.point);
                 sum += self.scene.light_visibility(si, light, 1, &self.shading, |vis| {
-                    self.shade_sample(ray, si, LightPoint { light: i, samples: 1, model }, &center, vis, ctx)
+                    let point = LightPoint { light: i, samples: 1, model };
+                    self.shade_sample(ray, si, point, &center, vis, ahead.of(i), ctx)
                 });
                 continue;
             }
@@ -404,7 +535,8 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
                         strata.sample(k, ctx.sampler.next_2d())
                     };
                     let ls = sampler.sample(u);
-                    acc += self.shade_sample(ray, si, LightPoint { light: i, samples: n, model }, &ls, vis, ctx);
+                    let point = LightPoint { light: i, samples: n, model };
+                    acc += self.shade_sample(ray, si, point, &ls, vis, None, ctx);
                 }
                 acc / n as f32
             });
@@ -413,7 +545,9 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     }
 
     /// One light point as a point light: the shading model's terms times the light's colour
-    /// times what the shadow ray lets through.
+    /// times what the shadow ray lets through (`blocked`: whether it was found blocked
+    /// ahead, if it was traced ahead).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn shade_sample<R: RayRecorder>(
         &self,
@@ -422,18 +556,17 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         point: LightPoint,
         ls: &LightSample,
         vis: &LightVisibility,
+        blocked: Option<bool>,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let cos = si.shading_normal.dot(ls.wi);
-        // A light point behind the surface (as seen from the viewer's side) contributes
-        // nothing; no shadow ray is needed to know that.
-        if cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0 {
+        if !faces(si, ls, cos) {
             if R::RECORDS {
                 record_skip(si, point, ls, cos, ctx);
             }
             return Color::ZERO;
         }
-        let arrived = self.visibility(si, ls, ray.time, point.light, vis, ctx);
+        let arrived = self.visibility(si, ls, ray.time, point.light, vis, blocked, ctx);
         if arrived == Color::ZERO {
             if R::RECORDS {
                 self.record_term(ray, si, point, ls, cos, arrived, ctx);
@@ -521,7 +654,9 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     }
 
     /// The fraction of light from `ls` that reaches `si` (all of it without shadows), as
-    /// `vis`, the scene's view of the light from `si`, answers.
+    /// `vis`, the scene's view of the light from `si`, answers, or as the shadow ray traced
+    /// ahead found (`blocked`, in an opaque scene: all or nothing).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn visibility<R: RayRecorder>(
         &self,
@@ -530,12 +665,16 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         time: f32,
         light: usize,
         vis: &LightVisibility,
+        blocked: Option<bool>,
         ctx: &mut PathContext<R>,
     ) -> Color {
         if !self.settings.shadows {
             return Color::ONE;
         }
         ctx.counts.shadow += 1;
+        if let Some(blocked) = blocked {
+            return if blocked { Color::ZERO } else { Color::ONE };
+        }
         let ray = vis.shadow_ray(si, ls, time);
         if !R::RECORDS {
             return vis.transmittance(&ray);
@@ -555,6 +694,53 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         });
         ctx.recorder.shadow_traversals(RecordedTraversal::from_log(self.scene, &log));
         t
+    }
+}
+
+/// Primitives from which a scene's first shadow rays are traced ahead in packets
+/// ([`Integrator::shadows_ahead`]). In smaller scenes a ray's walk is a node or two, cheaper
+/// than the packet's set-up and the second pass over the hits: one packet rendered the
+/// Cornell box (32 triangles) 10% slower and the shading-models spheres 10% slower, and the
+/// monkey (968 triangles) 5% faster.
+pub const SHADOWS_AHEAD_PRIMS: usize = 256;
+
+/// Whether light point `ls` is on the lit side of `si` (`cos`: the shading normal's cosine
+/// with it) and apart from it: a light point behind the surface (as seen from the viewer's
+/// side) contributes nothing, and no shadow ray is needed to know that.
+#[inline(always)]
+fn faces(si: &SurfaceInteraction, ls: &LightSample, cos: f32) -> bool {
+    !(cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0)
+}
+
+/// What a ray sees at its closest hit, found before it is shaded: the hit, the surface
+/// there, and the ray's footprint arrived there ([`Integrator::seen`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Seen<C> {
+    hit: Hit,
+    si: SurfaceInteraction,
+    cone: C,
+}
+
+/// The shadow rays a hit cast ahead of its shading, one per light shaded from one point
+/// ([`Integrator::first_shadows`]): bit `l` for light `l`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FirstShadows {
+    /// The lights whose shadow ray was traced ahead.
+    traced: u8,
+    /// Those whose shadow ray was blocked.
+    blocked: u8,
+}
+
+impl FirstShadows {
+    /// None traced.
+    pub const NONE: FirstShadows = FirstShadows { traced: 0, blocked: 0 };
+    /// Lights that can be traced ahead (one bit each).
+    pub const LIGHTS: usize = 8;
+
+    /// Whether the shadow ray towards light `l` was blocked, if it was traced ahead.
+    #[inline(always)]
+    fn of(self, l: usize) -> Option<bool> {
+        (l < Self::LIGHTS && self.traced >> l & 1 == 1).then_some(self.blocked >> l & 1 == 1)
     }
 }
 

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use crate::bvh::{FrustumTest, PACKET};
 use crate::camera::{CameraMotion, RayGenerator};
 use crate::cone::Footprint;
+use crate::film::exact_sum::ExactSum;
 use crate::film::{Film, FilmSlices, PassSlices, PixelAccumulator, Residual, finite_or_black};
 use crate::integrator::{Integrator, PathContext};
 use crate::lens::ThinLens;
@@ -324,6 +325,9 @@ struct Pass<'a, S: Sky, C: Footprint> {
     /// Whether camera rays go through the BVH in packets: a still pinhole's rays share their
     /// origin (a lens's do not, and the packet would fall back to one by one).
     packets: bool,
+    /// Whether a packet's hits trace their first shadow rays ahead, as packets
+    /// ([`Integrator::shadows_ahead`]).
+    shadows_ahead: bool,
     /// Where camera rays go in packets and misses do not depend on the ray (no environment
     /// map): the tiles' frustum tests, and the colour every camera ray that hits nothing
     /// returns, which fills a tile whose frustum meets no box of the BVH, its rays not traced
@@ -413,7 +417,8 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let (scene, settings) = (integrator.scene, integrator.settings);
         let culling = still.and_then(|_| TileCulling::of(scene, settings, camera));
         let cull = culling.zip(integrator.sky.uniform(settings));
-        Pass { integrator, camera, still, lens, packets, cull, pass }
+        let shadows_ahead = packets && integrator.shadows_ahead();
+        Pass { integrator, camera, still, lens, packets, shadows_ahead, cull, pass }
     }
 
     /// Which tiles of the band of `rows` rows from row `y0` hold no pixel whose camera rays
@@ -484,8 +489,10 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
 
     /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
     /// by a still camera: each sample's camera rays are traced as one packet, then each
-    /// pixel's sample goes on as in [`Pass::sample_pixel`]. The film gets the same values, bit
-    /// for bit, as pixel by pixel.
+    /// pixel's sample goes on as in [`Pass::sample_pixel`]. Where the scene allows
+    /// ([`Integrator::shadows_ahead`]), the hits are seen first and their first shadow rays
+    /// traced as packets too, then each pixel is shaded with the answers. The film gets the
+    /// same values, bit for bit, as pixel by pixel.
     fn sample_run<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let n = sums.len();
@@ -500,17 +507,34 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
             let rays: [Ray; PACKET] = std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
-            let mut rec = NoRecorder;
-            for (i, sampler) in samplers.into_iter().enumerate().take(n) {
-                let mut ctx = PathContext::new(sampler, &mut rec);
-                let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
+            let mut add = |i: usize, c: Color, rays: RayCounts| {
                 let c = finite_or_black(c, &mut total.dropped);
                 if k == 0 {
                     sums[i].add_first(c);
                 } else {
                     sums[i].add(c, row + x0 + i as u32, residuals);
                 }
-                total.rays.add(ctx.counts);
+                total.rays.add(rays);
+            };
+            let mut rec = NoRecorder;
+            if self.shadows_ahead {
+                // Filled in place (`array::from_fn` built the kilobyte apart and copied it).
+                let mut seen = [None; PACKET];
+                for (i, seen) in seen.iter_mut().enumerate().take(n) {
+                    *seen = self.integrator.seen(&rays[i], hits[i]);
+                }
+                let ahead = self.integrator.first_shadows(&rays[..n], &seen);
+                for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+                    let mut ctx = PathContext::new(sampler, &mut rec);
+                    let c = self.integrator.li_seen(&rays[i], seen[i].as_ref(), ahead[i], &mut ctx);
+                    add(i, c, ctx.counts);
+                }
+                continue;
+            }
+            for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+                let mut ctx = PathContext::new(sampler, &mut rec);
+                let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
+                add(i, c, ctx.counts);
             }
         }
         counts.fill(last);
@@ -592,6 +616,21 @@ pub fn render_cancellable(
 /// settings.spp`): the time its camera ray, and every ray after it, carries.
 pub fn sample_time(settings: &RenderSettings, x: u32, y: u32, k: u32) -> f32 {
     PixelSampler::new(settings.seed, y * settings.width + x, k, settings.spp).time
+}
+
+/// The sum [`render`] adds to pixel `(x, y)`'s film (with `settings`, through `camera`), as
+/// the debugger's replay finds it: each of the `spp` samples traced alone by [`trace_pixel`],
+/// summed exactly, as the film sums them. A render equals it bit for bit, however its rays
+/// were grouped.
+pub fn replay_pixel_sum(scene: &Scene, settings: &RenderSettings, camera: &CameraMotion, x: u32, y: u32) -> [f64; 3] {
+    let mut sum: [ExactSum; 3] = Default::default();
+    for k in 0..settings.spp {
+        let c = trace_pixel(scene, settings, camera, x, y, k, &mut NoRecorder);
+        for (e, v) in sum.iter_mut().zip(c.to_array()) {
+            e.add(f64::from(v));
+        }
+    }
+    sum.map(|e| e.to_f64())
 }
 
 /// Trace sample `k` of pixel `(x, y)` alone through `camera`, exactly as [`render`] does (with
@@ -693,6 +732,61 @@ mod tests {
                 assert_eq!(film_bits(&culled), film_bits(&traced), "{name} {filter:?}");
                 assert_eq!(culled_rays, rays, "{name} {filter:?}");
             }
+        }
+    }
+
+    /// Camera packets whose hits trace their first shadow rays ahead, as packets, give each
+    /// pixel what tracing it alone gives (the debugger's replay), bit for bit: a folded
+    /// surface of 800 triangles that shadows itself, under two point lights and a sphere
+    /// light shaded from its centre, by the Phong and Blinn-Phong models, with and without
+    /// ray cones; with the sphere light sampled, nothing is traced ahead.
+    #[test]
+    fn shadows_traced_ahead_equal_shadows_traced_alone() {
+        use crate::math::Vec3;
+        use crate::scene::{MeshDesc, SceneDesc};
+        use crate::settings::ShadingModel;
+        let n = 20u32;
+        let height = |x: f32, z: f32| 0.4 * (4.0 * x).sin() * (3.0 * z).cos();
+        let vertices = (0..=n)
+            .flat_map(|i| (0..=n).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let (x, z) = (2.0 * i as f32 / n as f32 - 1.0, 2.0 * j as f32 / n as f32 - 1.0);
+                Vec3::new(x, height(x, z), z)
+            })
+            .collect();
+        let v = |i: u32, j: u32| i * (n + 1) + j;
+        let faces = (0..n).flat_map(|i| {
+            (0..n).flat_map(move |j| [[v(i, j), v(i + 1, j), v(i + 1, j + 1)], [v(i, j), v(i + 1, j + 1), v(i, j + 1)]])
+        });
+        let mesh = MeshDesc { vertices: Some(vertices), faces: Some(faces.collect()), ..MeshDesc::default() };
+        let lights = vec![
+            crate::light::Light::Point { position: Vec3::new(1.5, 1.2, 0.5), color: Vec3::splat(0.6) },
+            crate::light::Light::Point { position: Vec3::new(-1.0, 0.9, -1.5), color: Vec3::new(0.2, 0.3, 0.5) },
+            crate::light::Light::Sphere { center: Vec3::new(0.0, 2.0, 0.0), radius: 0.3, color: Vec3::splat(0.3) },
+        ];
+        let desc = SceneDesc { meshes: vec![mesh], lights, ..SceneDesc::default() };
+        let scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
+        assert!(scene.prim_count() >= crate::integrator::SHADOWS_AHEAD_PRIMS);
+        let base = RenderSettings { width: 37, height: 29, light_samples: 0, ..RenderSettings::default() };
+        let variants = [
+            (base.clone(), true),
+            (RenderSettings { shading_model: ShadingModel::BlinnPhong, ..base.clone() }, true),
+            (RenderSettings { texture_filter: TextureFilter::Trilinear, spp: 2, ..base.clone() }, true),
+            (RenderSettings { light_samples: 4, ..base.clone() }, false),
+        ];
+        let camera = scene.camera_motion();
+        for (s, ahead) in variants {
+            assert_eq!(Integrator::new(&scene, &s).shadows_ahead(), ahead, "{s:?}");
+            let out = render(&scene, &s, &|_| {});
+            let mut shadowed = 0;
+            for y in 0..s.height {
+                for x in 0..s.width {
+                    let replayed = replay_pixel_sum(&scene, &s, &camera, x, y);
+                    assert_eq!(out.film.sum(x, y), replayed, "pixel ({x}, {y}) of {s:?}");
+                    shadowed += usize::from(out.film.sum(x, y)[2] < 0.05);
+                }
+            }
+            assert!(shadowed > 10, "the surface shadows itself ({shadowed} dark pixels)");
         }
     }
 

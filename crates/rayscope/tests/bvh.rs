@@ -526,6 +526,119 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
     }
 }
 
+/// Packets of shadow rays: each ray from its own origin (scattered over a patch, as the hits
+/// of neighbouring camera rays are) towards one light point, stopping short of it as shadow
+/// rays do; one packet in four from origins anywhere in any directions, a few rays starting
+/// before their origin. Sizes 1 to 8.
+fn random_shadow_packets(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec<Ray>> {
+    (0..n)
+        .map(|_| {
+            let light = rng.vec3(-2.0 * spread, 2.0 * spread);
+            let patch = rng.vec3(-spread, spread);
+            let scattered = rng.f32() < 0.25;
+            let len = 1 + (rng.f32() * 8.0) as usize % 8;
+            (0..len)
+                .map(|_| {
+                    let origin = if scattered { rng.vec3(-spread, spread) } else { patch + rng.vec3(-0.05, 0.05) };
+                    let mut r = if scattered {
+                        Ray::new(origin, rng.dir())
+                    } else {
+                        let to = light - origin;
+                        let mut r = Ray::new(origin, to.normalize());
+                        r.t.max = to.length() * (1.0 - 1e-4);
+                        r
+                    };
+                    if rng.f32() < 0.05 {
+                        r.t.min = -0.1;
+                    }
+                    r
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Each ray of a packet of rays with their own origins gets exactly the single-ray any-hit
+/// answer, on the detected SIMD level and the portable one. Returns the rays blocked.
+fn check_shadow_packets<P: Primitives>(tree: &WideTree, prims: &P, packets: &[Vec<Ray>]) -> u32 {
+    let portable = tree.clone().portable();
+    let mut blocked = 0;
+    for rays in packets {
+        let got = tree.occluded_packet(rays, prims);
+        assert_eq!(got, portable.occluded_packet(rays, prims), "SIMD levels, {rays:?}");
+        assert_eq!(got >> rays.len(), 0, "bits beyond the packet, {rays:?}");
+        for (i, ray) in rays.iter().enumerate() {
+            assert_eq!(got >> i & 1 == 1, tree.occluded(ray, prims), "ray {i} of {rays:?}");
+        }
+        blocked += got.count_ones();
+    }
+    blocked
+}
+
+/// [`check_shadow_packets`] on the 8- and 16-wide trees over `shapes`.
+fn check_shadow_packets_in(shapes: &[Shape], packets: &[Vec<Ray>]) -> u32 {
+    let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+    let bvh = Bvh::build(&bounds, &BuildParams::default());
+    let prims = Ordered { shapes, bvh: &bvh };
+    [8, 16]
+        .into_iter()
+        .map(|width| check_shadow_packets(&WideTree::with_width(&bvh, &prims, width), &prims, packets))
+        .sum()
+}
+
+#[test]
+fn shadow_packets_equal_single_rays() {
+    let mut rng = Rng(22);
+    let (mut blocked, mut rays) = (0, 0);
+    for (n, size) in [(0, 0.1), (1, 0.5), (10, 0.3), (1000, 0.1), (20_000, 0.03)] {
+        let shapes = random_soup(&mut rng, n, size);
+        let mut packets = random_shadow_packets(&mut rng, 1500, 1.5);
+        // A NaN direction and an infinite origin beside ordinary rays, and an empty packet.
+        let mut bad = packets[0].clone();
+        bad.truncate(6);
+        bad.push(Ray::new(Vec3A::ZERO, Vec3A::new(f32::NAN, 0.0, 1.0)));
+        bad.push(Ray::new(Vec3A::splat(f32::INFINITY), Vec3A::X));
+        packets.push(bad);
+        packets.push(Vec::new());
+        rays += packets.iter().map(Vec::len).sum::<usize>() as u32 * 2;
+        blocked += check_shadow_packets_in(&shapes, &packets);
+    }
+    assert!(blocked > 2000 && blocked < rays - 2000, "blocked and open rays both ({blocked} of {rays})");
+}
+
+/// The shadow rays the renderer traces ahead: from the course scenes' camera hits towards
+/// each light, eight neighbouring pixels a packet.
+#[test]
+fn shadow_packets_equal_single_rays_on_course_scenes() {
+    let assets = assets("shadow_packets_equal_single_rays_on_course_scenes");
+    for name in course_scene_names(assets.as_ref()) {
+        let scene = builtin_scene(name, assets.as_ref());
+        let cam = scene.camera();
+        let (w, h) = (200u32, 150u32);
+        let options = rayscope::settings::ShadingOptions::default();
+        let mut packets = Vec::new();
+        for light in &scene.lights {
+            for y in 0..h {
+                for x0 in (0..w).step_by(8) {
+                    let packet: Vec<Ray> = (x0..x0 + 8)
+                        .filter_map(|x| {
+                            let ray = cam.pixel_ray(x, y, w, h);
+                            let si = scene.surface(&ray, &scene.intersect(&ray)?, &options);
+                            let ls = light.center_sample(si.point);
+                            (si.geo_normal.dot(ls.wi) > 0.0)
+                                .then(|| Ray::spawn_towards(si.point, si.geo_normal, ls.wi, ls.distance, 0.0))
+                        })
+                        .collect();
+                    packets.push(packet);
+                }
+            }
+        }
+        let g = &scene.geometry;
+        let blocked = check_shadow_packets(&g.wide, g, &packets);
+        assert_eq!(check_shadow_packets(&WideTree::with_width(&g.bvh, g, 24 - g.wide.width()), g, &packets), blocked);
+    }
+}
+
 /// The inverse of a zero direction component is a power of two, so that `o * inv` is exact.
 #[test]
 fn zero_direction_components_invert_to_a_power_of_two() {
@@ -699,6 +812,25 @@ proptest! {
     #[test]
     fn soup_packets_equal_single_rays((shapes, packets) in soup_and_packets()) {
         check_packets_in(&shapes, &packets);
+    }
+}
+
+/// A triangle soup and packets of up to eight rays into it, each ray from its own origin.
+fn soup_and_shadow_packets() -> impl Strategy<Value = (Vec<Shape>, Vec<Vec<Ray>>)> {
+    soup().prop_flat_map(|(scale, shapes)| {
+        let packet = prop::collection::vec(ray(scale, shapes.clone()), 1..=8);
+        (Just(shapes), prop::collection::vec(packet, 1..8))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// Packets of rays with their own origins into such soups get, ray by ray, the single-ray
+    /// any-hit answer, at both widths and on the detected and the portable SIMD level.
+    #[test]
+    fn soup_shadow_packets_equal_single_rays((shapes, packets) in soup_and_shadow_packets()) {
+        check_shadow_packets_in(&shapes, &packets);
     }
 }
 

@@ -8,11 +8,9 @@ mod common;
 use common::inline_scene;
 use rayscope::camera::{Camera, CameraDesc, CameraMotion};
 use rayscope::debug::{SampleChoice, trace_pixel_samples};
-use rayscope::film::exact_sum::ExactSum;
 use rayscope::material::MaterialDesc;
 use rayscope::math::{Vec3, Vec3A};
-use rayscope::record::NoRecorder;
-use rayscope::render::{render, trace_pixel};
+use rayscope::render::{render, replay_pixel_sum};
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
 use rayscope::settings::RenderSettings;
 
@@ -123,14 +121,8 @@ fn a_lens_render_equals_the_debuggers_replay_on_any_thread_count() {
         let camera = scene.camera_motion();
         for y in 0..s.height {
             for x in 0..s.width {
-                let mut sum: [ExactSum; 3] = Default::default();
-                for k in 0..s.spp {
-                    let c = trace_pixel(&scene, &s, &camera, x, y, k, &mut NoRecorder);
-                    for (e, v) in sum.iter_mut().zip(c.to_array()) {
-                        e.add(f64::from(v));
-                    }
-                }
-                assert_eq!(one.film.sum(x, y), sum.map(|e| e.to_f64()), "pixel ({x}, {y}), {spp} spp");
+                let replayed = replay_pixel_sum(&scene, &s, &camera, x, y);
+                assert_eq!(one.film.sum(x, y), replayed, "pixel ({x}, {y}), {spp} spp");
             }
         }
     }

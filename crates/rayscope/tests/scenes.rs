@@ -6,10 +6,8 @@ mod common;
 use std::path::Path;
 
 use common::{assets, builtin_scene};
-use rayscope::film::exact_sum::ExactSum;
 use rayscope::math::Vec3A;
-use rayscope::record::NoRecorder;
-use rayscope::render::{render, trace_pixel};
+use rayscope::render::{render, replay_pixel_sum};
 use rayscope::scene::{LoadContext, MeshDesc, Scene, SceneDesc, builtin};
 use rayscope::settings::RenderSettings;
 
@@ -52,14 +50,8 @@ fn renders_equal_the_debuggers_pixel_by_pixel_replay() {
         let camera = scene.camera_motion();
         for y in 0..s.height {
             for x in 0..s.width {
-                let mut sum: [ExactSum; 3] = Default::default();
-                for k in 0..s.spp {
-                    let c = trace_pixel(&scene, &s, &camera, x, y, k, &mut NoRecorder);
-                    for (e, v) in sum.iter_mut().zip(c.to_array()) {
-                        e.add(f64::from(v));
-                    }
-                }
-                assert_eq!(out.film.sum(x, y), sum.map(|e| e.to_f64()), "{} pixel ({x}, {y})", b.name);
+                let replayed = replay_pixel_sum(&scene, &s, &camera, x, y);
+                assert_eq!(out.film.sum(x, y), replayed, "{} pixel ({x}, {y})", b.name);
             }
         }
     }

@@ -385,6 +385,13 @@ impl Geometry {
         self.wide.occluded_counted(ray, self, obs)
     }
 
+    /// Which of up to [`PACKET`] rays something blocks: bit `i` is [`Geometry::occluded`] of
+    /// `rays[i]` (one walk of the tree for all of them; see [`crate::bvh::WideBvh::occluded_packet`]).
+    #[inline(never)]
+    pub fn occluded_packet(&self, rays: &[Ray]) -> u32 {
+        self.wide.occluded_packet(rays, self)
+    }
+
     /// What shadow rays from `apex` (on the side of `side`) into the sphere (`center`,
     /// `radius`) may cross, for [`Geometry::occluded_among`]; see
     /// [`crate::bvh::shadow`].

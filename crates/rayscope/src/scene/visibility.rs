@@ -83,6 +83,15 @@ impl Scene {
         self.geometry.occluded(ray)
     }
 
+    /// Which of up to [`crate::bvh::PACKET`] shadow rays made by
+    /// [`LightVisibility::shadow_ray`] (each traced alone: no group) are blocked, in a scene
+    /// without transparent surfaces: bit `i` is set when [`Scene::transmittance`] of `rays[i]`
+    /// is zero (it is one otherwise). The rays go through the tree together.
+    pub fn blocked_packet(&self, rays: &[Ray]) -> u32 {
+        debug_assert!(!self.has_transparency, "shadow rays through transparent surfaces are traced alone");
+        self.geometry.occluded_packet(rays)
+    }
+
     /// Fraction of light that passes from a surface point along `ray` (a shadow ray): zero
     /// when an opaque surface blocks it; through transparent surfaces, the product of
     /// `kd * (1 - d)` of each surface crossed (coloured shadows, as in the course).

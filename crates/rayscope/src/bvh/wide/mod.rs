@@ -25,6 +25,8 @@
 //! - `traverse.rs`: closest-hit and any-hit traversal, one ray at a time;
 //! - `packet/`: closest hits of packets of camera rays that share an origin (`mod.rs`: the
 //!   traversal; `setup.rs`: the packet's set-up, portable and in AVX2 lanes);
+//! - `occluded_packet.rs`: any-hit for packets of rays with their own origins (shadow rays
+//!   of neighbouring pixels towards one light), each ray with its single-ray node test;
 //! - `frustum.rs`: whether a frustum of rays (a tile's camera rays) may meet any leaf box;
 //! - `shadow.rs`: shadow rays grouped per shading point, answered without a traversal;
 //! - `validate.rs`: the tree's invariants;
@@ -38,6 +40,7 @@ mod collapse;
 mod frustum;
 mod kernels;
 mod layout;
+mod occluded_packet;
 mod packet;
 mod shadow;
 mod simd;

@@ -498,7 +498,7 @@ where
 
     /// [`WideBvh::occluded_with`] in one order of the slab test (`FORWARD`: `t_min >= 0`).
     #[inline(always)]
-    fn any<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
+    pub(super) fn any<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver, const FORWARD: bool>(
         &self,
         cpu: T::Cpu,
         ray: &Ray,

@@ -150,6 +150,13 @@ impl WideTree {
         each!(self, t => t.occluded(ray, prims))
     }
 
+    /// Which of up to [`PACKET`] rays something blocks, as a bit mask (see
+    /// [`crate::bvh::WideBvh::occluded_packet`]).
+    #[inline]
+    pub fn occluded_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> u32 {
+        each!(self, t => t.occluded_packet(rays, prims))
+    }
+
     /// [`WideTree::occluded`], reporting the traversal to `obs`.
     #[inline]
     pub fn occluded_counted<P: Primitives + ?Sized, O: TraversalObserver>(

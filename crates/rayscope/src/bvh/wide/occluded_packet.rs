@@ -1,0 +1,185 @@
+//! Any-hit for packets of up to [`PACKET`] rays with origins of their own, such as the shadow
+//! rays from the points a row of camera rays hit towards one point light, traversing the wide
+//! tree once for all of them.
+//!
+//! Each ray keeps its own node test, the single ray's ([`NodeTest`]), so each ray enters
+//! exactly the nodes and leaves it enters alone and meets the same triangles in the same
+//! test: its answer is [`WideBvh::occluded`]'s, bit for bit. What the rays share is the walk:
+//! a node is fetched and branched on once for every ray that reaches it (a ray's mask of hit
+//! children is one test of the node's boxes in registers), and a leaf's blocks once for every
+//! ray that enters it. Neighbouring shadow rays that converge on one light enter nearly the
+//! same nodes, so the loads and unpredictable branches that dominate single rays (a
+//! 448-byte node per step) are paid once per packet. A ray leaves the packet as soon as it is
+//! blocked.
+
+use std::mem::MaybeUninit;
+
+use super::kernels::PortableTest;
+#[cfg(target_arch = "x86_64")]
+use super::kernels::{Avx2Test, Avx512Test};
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes};
+use super::packet::PACKET;
+use super::simd::Baseline;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Avx2, Avx512};
+use super::stack::Stack;
+use super::traverse::{range_occluded, ray_is_finite};
+use super::{ChildRef, Simd, WideBvh};
+use crate::bvh::{NoObserver, Primitives};
+use crate::geometry::aabb::safe_inv_dir;
+use crate::ray::Ray;
+
+/// The set bits of `mask`, lowest first.
+#[inline(always)]
+fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+/// The rays (bits) whose child mask in `masks` has child `i`.
+#[inline(always)]
+fn rays_into(masks: &[u32; PACKET], i: usize) -> u32 {
+    masks.iter().enumerate().fold(0, |acc, (r, m)| acc | ((m >> i) & 1) << r)
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W>,
+{
+    /// Which of `rays` (at most [`PACKET`]) something blocks within their intervals: bit `i`
+    /// is [`WideBvh::occluded`] of `rays[i]`.
+    #[inline]
+    pub fn occluded_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> u32 {
+        assert!(rays.len() <= PACKET, "a packet holds at most {PACKET} rays");
+        if self.nodes.is_empty() || rays.is_empty() {
+            return 0;
+        }
+        // SAFETY: each `#[target_feature]` variant is called with the token (`cpu`) that proves
+        // the CPU has its features.
+        unsafe {
+            match self.simd {
+                #[cfg(target_arch = "x86_64")]
+                Simd::Avx512(cpu) => self.occluded_packet_avx512(cpu, rays, prims),
+                #[cfg(target_arch = "x86_64")]
+                Simd::Avx2(cpu) => self.occluded_packet_avx2(cpu, rays, prims),
+                _ => self.occluded_packet_portable(rays, prims),
+            }
+        }
+    }
+
+    /// The portable packet any-hit traversal, out of line (as the single ray's).
+    #[inline(never)]
+    fn occluded_packet_portable<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> u32 {
+        self.any_packet::<PortableTest<W>, P>(Baseline, rays, prims)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn occluded_packet_avx2<P: Primitives + ?Sized>(&self, cpu: Avx2, rays: &[Ray], prims: &P) -> u32 {
+        self.any_packet::<Avx2Test<W>, P>(cpu.into(), rays, prims)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+    fn occluded_packet_avx512<P: Primitives + ?Sized>(&self, cpu: Avx512, rays: &[Ray], prims: &P) -> u32 {
+        self.any_packet::<Avx512Test<W>, P>(cpu.into(), rays, prims)
+    }
+
+    /// [`WideBvh::occluded_packet`] with node test `T` (on the CPU `cpu` proves). The packet
+    /// is compiled for the forward slab test only (`t_min >= 0`, as every shadow ray's): a ray
+    /// that starts before its origin goes alone.
+    #[inline(always)]
+    fn any_packet<T: NodeTest<W>, P: Primitives + ?Sized>(&self, cpu: T::Cpu, rays: &[Ray], prims: &P) -> u32 {
+        let mut blocked = 0u32;
+        let mut active = 0u32;
+        for (i, ray) in rays.iter().enumerate() {
+            if !ray_is_finite(ray) {
+                continue;
+            }
+            if ray.t.min >= 0.0 {
+                active |= 1 << i;
+            } else if self.any::<T, P, NoObserver, false>(cpu, ray, prims, &mut NoObserver) {
+                blocked |= 1 << i;
+            }
+        }
+        if active == 0 {
+            return blocked;
+        }
+        // Each active ray's node test and triangle set-up, made in a loop: in a closure (as
+        // `array::from_fn` takes) they were compiled without this function's CPU features,
+        // their intrinsics left as calls.
+        let mut tests: [MaybeUninit<T>; PACKET] = [const { MaybeUninit::uninit() }; PACKET];
+        let mut lanes: [MaybeUninit<RayLanes>; PACKET] = [const { MaybeUninit::uninit() }; PACKET];
+        let (mut t_min, mut t_max) = ([0.0; PACKET], [0.0; PACKET]);
+        for i in lanes_of(active) {
+            let ray = &rays[i];
+            let inv = safe_inv_dir(ray.dir);
+            tests[i].write(T::new(cpu, ray, inv, self.reach));
+            lanes[i].write(RayLanes::with_inv(ray, inv));
+            (t_min[i], t_max[i]) = (ray.t.min, ray.t.max);
+        }
+        let mut stack: Stack<(ChildRef, u32)> = Stack::new();
+        let (mut current, mut entering) = (ChildRef::ROOT, active);
+        loop {
+            // Rays blocked since the entry was pushed go no further.
+            entering &= !blocked;
+            if entering != 0 {
+                if current.is_packed() {
+                    let mut open = entering;
+                    for (a, b, pair_lanes) in self.block_pairs(current) {
+                        for r in lanes_of(open) {
+                            // SAFETY: `r` is in `entering`, within `active`, whose lanes were
+                            // all written above.
+                            let lanes = unsafe { lanes[r].assume_init_ref() };
+                            if T::intersect_pair(cpu, lanes, a, b, t_min[r], t_max[r]).0 & pair_lanes != 0 {
+                                open &= !(1 << r);
+                            }
+                        }
+                        if open == 0 {
+                            break;
+                        }
+                    }
+                    blocked |= entering & !open;
+                } else if current.is_leaf() {
+                    let range = self.ranges[current.range_index()];
+                    for r in lanes_of(entering) {
+                        if range_occluded(range, &rays[r], prims) {
+                            blocked |= 1 << r;
+                        }
+                    }
+                } else {
+                    let node = &self.nodes[current.node_index() as usize];
+                    let mut masks = [0u32; PACKET];
+                    let mut hit = 0u32;
+                    for r in lanes_of(entering) {
+                        // SAFETY: as for the leaves' `lanes` above.
+                        let test = unsafe { tests[r].assume_init_ref() };
+                        let (_, m) = test.test::<true>(node, t_min[r], t_max[r]);
+                        masks[r] = m;
+                        hit |= m;
+                    }
+                    if hit != 0 {
+                        // Any order finds the blockers; the first child hit is entered next.
+                        let first = hit.trailing_zeros() as usize;
+                        for i in lanes_of(hit & (hit - 1)) {
+                            self.prefetch(node.child[i]);
+                            stack.push((node.child[i], rays_into(&masks, i)));
+                        }
+                        current = node.child[first];
+                        entering = rays_into(&masks, first);
+                        continue;
+                    }
+                }
+            }
+            match stack.pop() {
+                Some((c, e)) => (current, entering) = (c, e),
+                None => return blocked,
+            }
+        }
+    }
+}
