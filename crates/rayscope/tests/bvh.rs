@@ -7,7 +7,8 @@ use common::{Rng, assets, builtin_scene};
 use proptest::prelude::{Just, ProptestConfig, Strategy, any, prop, prop_oneof, proptest};
 use rayscope::bvh::wide::{Lanes, NodeWidth};
 use rayscope::bvh::{
-    BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, SplitRule, WideBvh, WideTree, split_candidates,
+    BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, SplitRule, TraversalLog, WideBvh, WideTree,
+    split_candidates,
 };
 use rayscope::geometry::aabb::safe_inv_dir;
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
@@ -567,8 +568,18 @@ fn check_shadow_packets<P: Primitives>(tree: &WideTree, prims: &P, packets: &[Ve
         let got = tree.occluded_packet(rays, prims);
         assert_eq!(got, portable.occluded_packet(rays, prims), "SIMD levels, {rays:?}");
         assert_eq!(got >> rays.len(), 0, "bits beyond the packet, {rays:?}");
+        // Each ray's record of the packet's walk is its walk alone: the same nodes and leaves
+        // in the same order (what the debugger, which traces shadow rays alone, shows).
+        let mut logs: [TraversalLog; 8] = Default::default();
+        assert_eq!(tree.occluded_packet_counted(rays, prims, &mut logs), got);
         for (i, ray) in rays.iter().enumerate() {
             assert_eq!(got >> i & 1 == 1, tree.occluded(ray, prims), "ray {i} of {rays:?}");
+            let mut alone = TraversalLog::default();
+            tree.occluded_counted(ray, prims, &mut alone);
+            // (Compared without the logged rays, which may hold a NaN.)
+            let visits =
+                |log: &TraversalLog| log.queries.iter().map(|q| (q.kind, q.entered.clone())).collect::<Vec<_>>();
+            assert_eq!(visits(&logs[i]), visits(&alone), "ray {i} of {rays:?}");
         }
         blocked += got.count_ones();
     }

@@ -25,7 +25,7 @@ use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
 use super::traverse::{range_occluded, ray_is_finite};
 use super::{ChildRef, Simd, WideBvh};
-use crate::bvh::{NoObserver, Primitives};
+use crate::bvh::{NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::ray::Ray;
 
@@ -55,7 +55,24 @@ where
     /// is [`WideBvh::occluded`] of `rays[i]`.
     #[inline]
     pub fn occluded_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> u32 {
+        self.occluded_packet_counted(rays, prims, &mut [NoObserver; PACKET])
+    }
+
+    /// [`WideBvh::occluded_packet`], reporting each ray's traversal to its observer in `obs`:
+    /// exactly what [`WideBvh::occluded_counted`] reports for the ray alone (the same nodes
+    /// and leaves, in the same order), as each ray takes its own node tests and children in
+    /// the single ray's order.
+    #[inline]
+    pub fn occluded_packet_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> u32 {
         assert!(rays.len() <= PACKET, "a packet holds at most {PACKET} rays");
+        for (ray, obs) in rays.iter().zip(obs.iter_mut()) {
+            obs.query(QueryKind::AnyHit, ray);
+        }
         if self.nodes.is_empty() || rays.is_empty() {
             return 0;
         }
@@ -64,37 +81,64 @@ where
         unsafe {
             match self.simd {
                 #[cfg(target_arch = "x86_64")]
-                Simd::Avx512(cpu) => self.occluded_packet_avx512(cpu, rays, prims),
+                Simd::Avx512(cpu) => self.occluded_packet_avx512(cpu, rays, prims, obs),
                 #[cfg(target_arch = "x86_64")]
-                Simd::Avx2(cpu) => self.occluded_packet_avx2(cpu, rays, prims),
-                _ => self.occluded_packet_portable(rays, prims),
+                Simd::Avx2(cpu) => self.occluded_packet_avx2(cpu, rays, prims, obs),
+                _ => self.occluded_packet_portable(rays, prims, obs),
             }
         }
     }
 
     /// The portable packet any-hit traversal, out of line (as the single ray's).
     #[inline(never)]
-    fn occluded_packet_portable<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> u32 {
-        self.any_packet::<PortableTest<W>, P>(Baseline, rays, prims)
+    fn occluded_packet_portable<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> u32 {
+        self.any_packet::<PortableTest<W>, P, O>(Baseline, rays, prims, obs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn occluded_packet_avx2<P: Primitives + ?Sized>(&self, cpu: Avx2, rays: &[Ray], prims: &P) -> u32 {
-        self.any_packet::<Avx2Test<W>, P>(cpu.into(), rays, prims)
+    fn occluded_packet_avx2<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: Avx2,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> u32 {
+        self.any_packet::<Avx2Test<W>, P, O>(cpu.into(), rays, prims, obs)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
-    fn occluded_packet_avx512<P: Primitives + ?Sized>(&self, cpu: Avx512, rays: &[Ray], prims: &P) -> u32 {
-        self.any_packet::<Avx512Test<W>, P>(cpu.into(), rays, prims)
+    fn occluded_packet_avx512<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: Avx512,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> u32 {
+        self.any_packet::<Avx512Test<W>, P, O>(cpu.into(), rays, prims, obs)
     }
 
     /// [`WideBvh::occluded_packet`] with node test `T` (on the CPU `cpu` proves). The packet
     /// is compiled for the forward slab test only (`t_min >= 0`, as every shadow ray's): a ray
     /// that starts before its origin goes alone.
+    ///
+    /// A node's hit children are entered from the highest slot down, as the single ray's
+    /// (`WideBvh::any`) are: each ray then meets its own nodes and leaves in its own order,
+    /// whichever other rays share them, and stops at the blocker it stops at alone.
     #[inline(always)]
-    fn any_packet<T: NodeTest<W>, P: Primitives + ?Sized>(&self, cpu: T::Cpu, rays: &[Ray], prims: &P) -> u32 {
+    fn any_packet<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        cpu: T::Cpu,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> u32 {
         let mut blocked = 0u32;
         let mut active = 0u32;
         for (i, ray) in rays.iter().enumerate() {
@@ -103,7 +147,7 @@ where
             }
             if ray.t.min >= 0.0 {
                 active |= 1 << i;
-            } else if self.any::<T, P, NoObserver, false>(cpu, ray, prims, &mut NoObserver) {
+            } else if self.any::<T, P, O, false>(cpu, ray, prims, &mut obs[i]) {
                 blocked |= 1 << i;
             }
         }
@@ -129,6 +173,16 @@ where
             // Rays blocked since the entry was pushed go no further.
             entering &= !blocked;
             if entering != 0 {
+                if O::WATCHES {
+                    for r in lanes_of(entering) {
+                        if current.is_leaf() {
+                            obs[r].entered_leaf(current);
+                        } else {
+                            obs[r].entered(current.node_index());
+                            obs[r].boxes_tested(W as u32);
+                        }
+                    }
+                }
                 if current.is_packed() {
                     let mut open = entering;
                     for (a, b, pair_lanes) in self.block_pairs(current) {
@@ -164,9 +218,10 @@ where
                         hit |= m;
                     }
                     if hit != 0 {
-                        // Any order finds the blockers; the first child hit is entered next.
-                        let first = hit.trailing_zeros() as usize;
-                        for i in lanes_of(hit & (hit - 1)) {
+                        // The highest child hit is entered next, the others pushed from the
+                        // lowest up (so popped from the highest down).
+                        let first = (31 - hit.leading_zeros()) as usize;
+                        for i in lanes_of(hit & !(1 << first)) {
                             self.prefetch(node.child[i]);
                             stack.push((node.child[i], rays_into(&masks, i)));
                         }

@@ -530,9 +530,12 @@ where
                 obs.boxes_tested(W as u32);
                 let (_, mut mask) = boxes.test::<FORWARD>(node, t_min, t_max);
                 if mask != 0 {
-                    // Any order finds a blocker; the first hit child is visited next.
-                    let first = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
+                    // Any order finds a blocker. The highest child hit is visited next, the
+                    // others pushed from the lowest up (popped from the highest down): the
+                    // order a packet's rays keep (`WideBvh::any_packet`), so that a shadow
+                    // ray meets the same nodes in a packet as alone.
+                    let first = (31 - mask.leading_zeros()) as usize;
+                    mask &= !(1 << first);
                     while mask != 0 {
                         let i = mask.trailing_zeros() as usize;
                         self.prefetch(node.child[i]);

@@ -157,6 +157,18 @@ impl WideTree {
         each!(self, t => t.occluded_packet(rays, prims))
     }
 
+    /// [`WideTree::occluded_packet`], reporting each ray's traversal to its observer (see
+    /// [`crate::bvh::WideBvh::occluded_packet_counted`]).
+    #[inline]
+    pub fn occluded_packet_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        rays: &[Ray],
+        prims: &P,
+        obs: &mut [O; PACKET],
+    ) -> u32 {
+        each!(self, t => t.occluded_packet_counted(rays, prims, obs))
+    }
+
     /// [`WideTree::occluded`], reporting the traversal to `obs`.
     #[inline]
     pub fn occluded_counted<P: Primitives + ?Sized, O: TraversalObserver>(
