@@ -672,7 +672,8 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             return Color::ONE;
         }
         ctx.counts.shadow += 1;
-        if let Some(blocked) = blocked {
+        // A recorder wants the ray's event and walk: it is traced again (the same answer).
+        if let Some(blocked) = blocked.filter(|_| !R::RECORDS) {
             return if blocked { Color::ZERO } else { Color::ONE };
         }
         let ray = vis.shadow_ray(si, ls, time);
