@@ -202,13 +202,20 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// and in a scene of [`SHADOWS_AHEAD_PRIMS`] primitives or more.
     pub fn shadows_ahead(&self) -> bool {
         let s = self.settings;
-        let one_point = |l: &Light| s.light_samples == 0 || matches!(l, Light::Point { .. });
         s.shading
             && s.shadows
             && self.scene.prim_count() >= SHADOWS_AHEAD_PRIMS
             && !self.scene.has_transparency
             && (1..=FirstShadows::LIGHTS).contains(&self.scene.lights.len())
-            && self.scene.lights.iter().all(one_point)
+            && self.scene.lights.iter().all(|l| self.shaded_from_one_point(l))
+    }
+
+    /// Whether `light` is shaded from one point, its centre (a point light, or any light
+    /// without light samples: hard shadows), with one shadow ray; else from stratified
+    /// samples. The one rule of [`Integrator::direct`] and [`Integrator::shadows_ahead`].
+    #[inline(always)]
+    fn shaded_from_one_point(&self, light: &Light) -> bool {
+        self.settings.light_samples == 0 || matches!(light, Light::Point { .. })
     }
 
     /// What camera ray `ray` sees at its closest hit `hit` (what [`Scene::intersect`] gives),
@@ -513,7 +520,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             ShadingModel::Phong
         };
         for (i, light) in self.scene.lights.iter().enumerate() {
-            if n == 0 || matches!(light, Light::Point { .. }) {
+            if self.shaded_from_one_point(light) {
                 let center = light.center_sample(si.point);
                 sum += self.scene.light_visibility(si, light, 1, &self.shading, |vis| {
                     let point = LightPoint { light: i, samples: 1, model };
