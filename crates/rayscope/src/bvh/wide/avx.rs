@@ -9,6 +9,7 @@
 use super::kernels::{NodeTest, PairHits, RayLanes, SlabOrigin, edges_f64_lanes, planes};
 use super::simd::{Avx2, Avx512};
 use super::{Tri4, WideNode};
+use crate::geometry::TriRay;
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
@@ -33,7 +34,7 @@ impl NodeTest<8> for Avx2Node8 {
         use std::arch::x86_64::_mm256_set1_ps;
         let (near, far) = planes(inv);
         let o = SlabOrigin::new(ray.origin, inv, reach);
-        // (A macro, not a closure: see `intersect_pair`.)
+        // (A macro, not a closure: see `pair_corners_avx2`.)
         macro_rules! splat {
             ($v:expr) => {
                 [_mm256_set1_ps($v.x), _mm256_set1_ps($v.y), _mm256_set1_ps($v.z)]
@@ -93,9 +94,16 @@ impl NodeTest<8> for Avx2Node8 {
         }
     }
 
+    type Corners = PairCorners256;
+
     #[inline(always)]
-    fn intersect_pair(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        intersect_pair_avx2(cpu, r, a, b, t_min, t_max)
+    fn pair_corners(cpu: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4) -> PairCorners256 {
+        pair_corners_avx2(cpu, &r.tri, a, b)
+    }
+
+    #[inline(always)]
+    fn intersect_corners(cpu: Avx2, r: &RayLanes, c: &PairCorners256, t_min: f32, t_max: f32) -> PairHits {
+        intersect_corners_avx2(cpu, r, c, t_min, t_max)
     }
 }
 
@@ -103,10 +111,22 @@ impl NodeTest<8> for Avx2Node8 {
 /// them) in 256-bit registers: the operations of `Tri4::intersect`, lane for lane, so the hits
 /// are the same bits. The 8- and 16-wide trees' leaves and the shadow groups use it.
 #[inline(always)]
-pub(super) fn intersect_pair_avx2(_: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+pub(super) fn intersect_pair_avx2(cpu: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+    intersect_corners_avx2(cpu, r, &pair_corners_avx2(cpu, &r.tri, a, b), t_min, t_max)
+}
+
+/// Two blocks' corners for one ray in 256-bit registers ([`super::kernels::Corners4`] of
+/// both, block `a` in the low lanes): per vertex, the rows along the ray's x, y and z axes,
+/// translated by its origin.
+#[derive(Clone, Copy)]
+pub struct PairCorners256([[std::arch::x86_64::__m256; 3]; 3]);
+
+/// The corners of blocks `a` and `b` for a ray whose triangle set-up is `tri`.
+#[inline(always)]
+pub(super) fn pair_corners_avx2(_: Avx2, tri: &TriRay, a: &Tri4, b: &Tri4) -> PairCorners256 {
     use std::arch::x86_64::*;
-    // SAFETY: the CPU has AVX2 and FMA (the token says so); the loads read 16 bytes from rows of 4 floats,
-    // the stores write eight floats into arrays of eight.
+    // SAFETY: the CPU has AVX2 (the token says so); the loads read 16 bytes from rows of 4
+    // floats.
     unsafe {
         // Macros, not closures: a closure is a function of its own, compiled without the
         // caller's AVX2, and its intrinsics then stay calls (measured: a third more
@@ -116,6 +136,31 @@ pub(super) fn intersect_pair_avx2(_: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_m
                 _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(_mm_loadu_ps($x.as_ptr())), _mm_loadu_ps($y.as_ptr()))
             };
         }
+        let [kx, ky, kz] = tri.axes;
+        let (ox, oy, oz) =
+            (_mm256_set1_ps(tri.origin[0]), _mm256_set1_ps(tri.origin[1]), _mm256_set1_ps(tri.origin[2]));
+        // A vertex row of both blocks, permuted (a choice of rows) and translated.
+        macro_rules! translated {
+            ($v:ident) => {
+                [
+                    _mm256_sub_ps(load!(a.$v[kx], b.$v[kx]), ox),
+                    _mm256_sub_ps(load!(a.$v[ky], b.$v[ky]), oy),
+                    _mm256_sub_ps(load!(a.$v[kz], b.$v[kz]), oz),
+                ]
+            };
+        }
+        PairCorners256([translated!(v0), translated!(v1), translated!(v2)])
+    }
+}
+
+/// [`intersect_pair_avx2`] from the pair's corners `c` ([`pair_corners_avx2`] for `r`, or for
+/// a ray with the same origin and axes).
+#[inline(always)]
+pub(super) fn intersect_corners_avx2(_: Avx2, r: &RayLanes, c: &PairCorners256, t_min: f32, t_max: f32) -> PairHits {
+    use std::arch::x86_64::*;
+    // SAFETY: the CPU has AVX2 and FMA (the token says so); the stores write eight floats into
+    // arrays of eight.
+    unsafe {
         macro_rules! store {
             ($x:expr) => {{
                 let mut out = [0.0f32; 8];
@@ -124,22 +169,17 @@ pub(super) fn intersect_pair_avx2(_: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t_m
             }};
         }
         let tri = &r.tri;
-        let [kx, ky, kz] = tri.axes;
-        let (ox, oy, oz) =
-            (_mm256_set1_ps(tri.origin[0]), _mm256_set1_ps(tri.origin[1]), _mm256_set1_ps(tri.origin[2]));
         let (sx, sy, sz) = (_mm256_set1_ps(tri.sx), _mm256_set1_ps(tri.sy), _mm256_set1_ps(tri.sz));
-        // A vertex row of both blocks, translated, permuted (a choice of rows) and sheared.
+        // A vertex's corners sheared.
         macro_rules! sheared {
-            ($v:ident) => {{
-                let z = _mm256_sub_ps(load!(a.$v[kz], b.$v[kz]), oz);
-                let x = _mm256_fmadd_ps(sx, z, _mm256_sub_ps(load!(a.$v[kx], b.$v[kx]), ox));
-                let y = _mm256_fmadd_ps(sy, z, _mm256_sub_ps(load!(a.$v[ky], b.$v[ky]), oy));
-                (x, y, z)
+            ($v:expr) => {{
+                let [x, y, z] = $v;
+                (_mm256_fmadd_ps(sx, z, x), _mm256_fmadd_ps(sy, z, y), z)
             }};
         }
-        let (x0, y0, z0) = sheared!(v0);
-        let (x1, y1, z1) = sheared!(v1);
-        let (x2, y2, z2) = sheared!(v2);
+        let (x0, y0, z0) = sheared!(c.0[0]);
+        let (x1, y1, z1) = sheared!(c.0[1]);
+        let (x2, y2, z2) = sheared!(c.0[2]);
         let (mul, sub, add) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps);
         let mut e0 = sub(mul(x1, y2), mul(y1, x2));
         let mut e1 = sub(mul(x2, y0), mul(y2, x0));
@@ -201,7 +241,7 @@ impl NodeTest<16> for Avx512Node16 {
         use std::arch::x86_64::_mm512_set1_ps;
         let (near, far) = planes(inv);
         let o = SlabOrigin::new(ray.origin, inv, reach);
-        // (A macro, not a closure: see `intersect_pair`.)
+        // (A macro, not a closure: see `pair_corners_avx2`.)
         macro_rules! splat {
             ($v:expr) => {
                 [_mm512_set1_ps($v.x), _mm512_set1_ps($v.y), _mm512_set1_ps($v.z)]
@@ -259,8 +299,15 @@ impl NodeTest<16> for Avx512Node16 {
         }
     }
 
+    type Corners = PairCorners256;
+
     #[inline(always)]
-    fn intersect_pair(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        intersect_pair_avx2(cpu.into(), r, a, b, t_min, t_max)
+    fn pair_corners(cpu: Avx512, r: &RayLanes, a: &Tri4, b: &Tri4) -> PairCorners256 {
+        pair_corners_avx2(cpu.into(), &r.tri, a, b)
+    }
+
+    #[inline(always)]
+    fn intersect_corners(cpu: Avx512, r: &RayLanes, c: &PairCorners256, t_min: f32, t_max: f32) -> PairHits {
+        intersect_corners_avx2(cpu.into(), r, c, t_min, t_max)
     }
 }

@@ -158,18 +158,33 @@ pub trait NodeTest<const W: usize>: Sized {
             .fold((0, 0), |(gt, eq), (j, &n)| (gt | u32::from(n > x) << j, eq | u32::from(n == x) << j))
     }
 
+    /// Two packed blocks' corners as the triangle test of ray `r` starts from them
+    /// ([`Corners4`] of each, in the test's registers): what rays with the same origin and
+    /// axes share.
+    type Corners: Copy;
+
+    /// The corners of blocks `a` and `b` for ray `r` (see [`NodeTest::Corners`]).
+    fn pair_corners(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4) -> Self::Corners;
+
+    /// [`NodeTest::intersect_pair`] from the pair's corners `c`, made for `r` or for a ray
+    /// with the same origin and axes ([`TriRay::origin`], [`TriRay::axes`]): the same bits.
+    fn intersect_corners(cpu: Self::Cpu, r: &RayLanes, c: &Self::Corners, t_min: f32, t_max: f32) -> PairHits;
+
     /// Two packed blocks at once, as the packed 4-wide test (`Tri4::intersect`) gives them:
     /// lanes 0..4 are `a`'s, 4..8 are `b`'s. Both are tested against `[t_min, t_max]`. It
     /// needs the CPU's token and the ray's triangle set-up only, not a node test: a packet's
     /// rays reach leaves without making one.
     #[inline(always)]
-    fn intersect_pair(_: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
-        let (ma, ta, ua, va) = a.intersect(r, t_min, t_max);
-        let (mb, tb, ub, vb) = b.intersect(r, t_min, t_max);
-        let cat = |x: [f32; 4], y: [f32; 4]| [x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3]];
-        (ma | mb << 4, cat(ta, tb), cat(ua, ub), cat(va, vb))
+    fn intersect_pair(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4, t_min: f32, t_max: f32) -> PairHits {
+        Self::intersect_corners(cpu, r, &Self::pair_corners(cpu, r, a, b), t_min, t_max)
     }
 }
+
+/// A block's corners as the watertight test starts from them for one ray: per vertex, the
+/// rows along the ray's x, y and z axes (its permutation, [`TriRay::axes`]), translated by its
+/// origin. Rays with the same origin and axes (a packet's camera rays entering one leaf) share
+/// them, and each ray's test goes on from there with its own shear.
+pub(super) type Corners4 = [[f32x4; 3]; 3];
 
 /// The lanes hit and their `t`, `u`, `v`, for eight triangles.
 pub type PairHits = (u32, [f32; 8], [f32; 8], [f32; 8]);
@@ -299,6 +314,21 @@ macro_rules! portable_node_test {
                 $name { inv: splat(inv), oinv_near: splat(o.near), oinv_far: splat(o.far), near, far }
             }
 
+            type Corners = [Corners4; 2];
+
+            #[inline(always)]
+            fn pair_corners(_: Baseline, r: &RayLanes, a: &Tri4, b: &Tri4) -> [Corners4; 2] {
+                [a.corners(&r.tri), b.corners(&r.tri)]
+            }
+
+            #[inline(always)]
+            fn intersect_corners(_: Baseline, r: &RayLanes, c: &[Corners4; 2], t_min: f32, t_max: f32) -> PairHits {
+                let (ma, ta, ua, va) = Tri4::intersect_corners(&c[0], r, t_min, t_max);
+                let (mb, tb, ub, vb) = Tri4::intersect_corners(&c[1], r, t_min, t_max);
+                let cat = |x: [f32; 4], y: [f32; 4]| [x[0], x[1], x[2], x[3], y[0], y[1], y[2], y[3]];
+                (ma | mb << 4, cat(ta, tb), cat(ua, ub), cat(va, vb))
+            }
+
             #[inline(always)]
             fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
                 let t = |row: usize, a: usize, oinv: &[$v; 3]| {
@@ -332,17 +362,33 @@ impl Tri4 {
     /// `u`, `v`. The permutation is a choice of rows (the block is structure-of-arrays).
     #[inline(always)]
     pub(super) fn intersect(&self, r: &RayLanes, t_min: f32, t_max: f32) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
-        let [kx, ky, kz] = r.tri.axes;
-        let [ox, oy, oz] = r.tri.origin.map(f32x4::splat);
-        let (sx, sy, sz) = (f32x4::splat(r.tri.sx), f32x4::splat(r.tri.sy), f32x4::splat(r.tri.sz));
+        Tri4::intersect_corners(&self.corners(&r.tri), r, t_min, t_max)
+    }
+
+    /// The block's corners for a ray whose triangle set-up is `tri` ([`Corners4`]).
+    #[inline(always)]
+    pub(super) fn corners(&self, tri: &TriRay) -> Corners4 {
+        let [kx, ky, kz] = tri.axes;
+        let [ox, oy, oz] = tri.origin.map(f32x4::splat);
         let l = |a: &[f32; 4]| f32x4::new(*a);
-        let sheared = |v: &[[f32; 4]; 3]| {
-            let z = l(&v[kz]) - oz;
-            (fused_mul_add(sx, z, l(&v[kx]) - ox), fused_mul_add(sy, z, l(&v[ky]) - oy), z)
-        };
-        let (x0, y0, z0) = sheared(&self.v0);
-        let (x1, y1, z1) = sheared(&self.v1);
-        let (x2, y2, z2) = sheared(&self.v2);
+        let translated = |v: &[[f32; 4]; 3]| [l(&v[kx]) - ox, l(&v[ky]) - oy, l(&v[kz]) - oz];
+        [translated(&self.v0), translated(&self.v1), translated(&self.v2)]
+    }
+
+    /// [`Tri4::intersect`] from the block's corners `c` ([`Tri4::corners`] for `r`, or for a
+    /// ray with the same origin and axes).
+    #[inline(always)]
+    pub(super) fn intersect_corners(
+        c: &Corners4,
+        r: &RayLanes,
+        t_min: f32,
+        t_max: f32,
+    ) -> (u32, [f32; 4], [f32; 4], [f32; 4]) {
+        let (sx, sy, sz) = (f32x4::splat(r.tri.sx), f32x4::splat(r.tri.sy), f32x4::splat(r.tri.sz));
+        let sheared = |[x, y, z]: [f32x4; 3]| (fused_mul_add(sx, z, x), fused_mul_add(sy, z, y), z);
+        let (x0, y0, z0) = sheared(c[0]);
+        let (x1, y1, z1) = sheared(c[1]);
+        let (x2, y2, z2) = sheared(c[2]);
         let (mut e0, mut e1, mut e2) = (x1 * y2 - y1 * x2, x2 * y0 - y2 * x0, x0 * y1 - y0 * x1);
         let zero = f32x4::ZERO;
         let bounds = |e0: f32x4, e1: f32x4, e2: f32x4| (e0.fast_min(e1).fast_min(e2), e0.fast_max(e1).fast_max(e2));
@@ -444,6 +490,18 @@ mod tests {
         }
     }
 
+    /// A point of a coarse grid in the plane z = 0.
+    fn grid(rng: &mut TestRng) -> Vec3A {
+        Vec3A::new(rng.random_range(-2..3) as f32, rng.random_range(-2..3) as f32, 0.0)
+    }
+
+    /// A triangle on [`grid`]'s points, its last corner lifted off the plane now and then: rays
+    /// through grid points meet its corners and edges.
+    fn grid_triangle(rng: &mut TestRng) -> crate::geometry::Triangle {
+        let v = [grid(rng), grid(rng), grid(rng)];
+        crate::geometry::Triangle::new(v[0], v[1], v[2] + Vec3A::Z * rng.random_range(-1..2) as f32)
+    }
+
     /// A random wide node: boxes around the origin, some slots empty (at +inf, as the collapse
     /// leaves them), some flat, some touching the ray origins' planes.
     fn random_node<const W: usize>(rng: &mut TestRng) -> WideNode<W> {
@@ -478,13 +536,9 @@ mod tests {
         let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
         #[cfg(target_arch = "x86_64")]
         let avx2 = Avx2::new();
-        let grid = |rng: &mut TestRng| Vec3A::new(rng.random_range(-2..3) as f32, rng.random_range(-2..3) as f32, 0.0);
         let (mut hits, mut fallback) = (0, 0);
         for _ in 0..20_000 {
-            let tris: [Triangle; 8] = std::array::from_fn(|_| {
-                let v = [grid(&mut rng), grid(&mut rng), grid(&mut rng)];
-                Triangle::new(v[0], v[1], v[2] + Vec3A::Z * rng.random_range(-1..2) as f32)
-            });
+            let tris: [Triangle; 8] = std::array::from_fn(|_| grid_triangle(&mut rng));
             let a = Tri4::pack((0..4).map(|i| (i as u32, tris[i])));
             let b = Tri4::pack((4..8).map(|i| (i as u32, tris[i])));
             let origin = if rng.random::<bool>() { grid(&mut rng) + Vec3A::Z * 3.0 } else { vec3(&mut rng, -3.0, 3.0) };
@@ -523,6 +577,61 @@ mod tests {
             assert_ne!(a.slot, [EMPTY; 4]);
         }
         assert!(hits > 5000 && fallback > 1000, "{hits} hits, {fallback} through a corner");
+    }
+
+    /// A pair's corners made for one ray serve every ray of the same origin and axes, as a
+    /// packet's leaves use them: each ray's hits from the shared corners are those of its own
+    /// pair test, bit for bit (portable, and AVX2 where the CPU has it), on rays from one
+    /// origin through a fan of directions around one axis, hitting the grid's corners and
+    /// edges.
+    #[test]
+    fn shared_corners_give_each_rays_own_hits() {
+        use crate::bvh::wide::Tri4;
+        use crate::bvh::wide::kernels::RayLanes;
+        use crate::geometry::Triangle;
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        let (mut shared, mut hits) = (0, 0);
+        for _ in 0..5_000 {
+            let tris: [Triangle; 8] = std::array::from_fn(|_| grid_triangle(&mut rng));
+            let a = Tri4::pack((0..4).map(|i| (i as u32, tris[i])));
+            let b = Tri4::pack((4..7).map(|i| (i as u32, tris[i])));
+            let origin = grid(&mut rng) + Vec3A::Z * 3.0;
+            let towards = |rng: &mut TestRng| {
+                let p = if rng.random::<bool>() { grid(rng) } else { vec3(rng, -2.0, 2.0) * Vec3A::new(1.0, 1.0, 0.0) };
+                Ray::new(origin, (p - origin).normalize())
+            };
+            let lead = RayLanes::new(&towards(&mut rng));
+            let portable = <Portable8 as NodeTest<8>>::pair_corners(Baseline, &lead, &a, &b);
+            #[cfg(target_arch = "x86_64")]
+            let avx2 = Avx2::new().map(|cpu| (cpu, <Avx2Node8 as NodeTest<8>>::pair_corners(cpu, &lead, &a, &b)));
+            for _ in 0..4 {
+                let ray = towards(&mut rng);
+                let lanes = RayLanes::new(&ray);
+                if lanes.tri.axes != lead.tri.axes {
+                    continue;
+                }
+                shared += 1;
+                let bits = |(m, t, u, v): super::PairHits| {
+                    let keep = |x: [f32; 8]| {
+                        (0..8).map(|i| if m & 1 << i != 0 { x[i].to_bits() } else { 0 }).collect::<Vec<_>>()
+                    };
+                    (m, keep(t), keep(u), keep(v))
+                };
+                let own = bits(<Portable8 as NodeTest<8>>::intersect_pair(Baseline, &lanes, &a, &b, 0.0, 10.0));
+                let from_shared =
+                    bits(<Portable8 as NodeTest<8>>::intersect_corners(Baseline, &lanes, &portable, 0.0, 10.0));
+                assert_eq!(own, from_shared, "{ray:?}");
+                hits += own.0.count_ones();
+                #[cfg(target_arch = "x86_64")]
+                if let Some((cpu, corners)) = avx2 {
+                    let own = bits(<Avx2Node8 as NodeTest<8>>::intersect_pair(cpu, &lanes, &a, &b, 0.0, 10.0));
+                    let from_shared =
+                        bits(<Avx2Node8 as NodeTest<8>>::intersect_corners(cpu, &lanes, &corners, 0.0, 10.0));
+                    assert_eq!(own, from_shared, "{ray:?}");
+                }
+            }
+        }
+        assert!(shared > 10_000 && hits > 5_000, "{shared} rays shared corners, {hits} hits");
     }
 
     /// The SIMD node tests of each width, where the target has them.

@@ -18,7 +18,7 @@ use super::kernels::PortableTest;
 #[cfg(target_arch = "x86_64")]
 use super::kernels::{Avx2Test, Avx512Test};
 use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes};
-use super::packet::PACKET;
+use super::packet::{PACKET, lanes_of};
 use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2, Avx512};
@@ -28,18 +28,6 @@ use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::geometry::aabb::safe_inv_dir;
 use crate::ray::Ray;
-
-/// The set bits of `mask`, lowest first.
-#[inline(always)]
-fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let i = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            i
-        })
-    })
-}
 
 /// The rays (bits) whose child mask in `masks` has child `i`.
 #[inline(always)]

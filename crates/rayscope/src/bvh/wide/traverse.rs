@@ -53,6 +53,31 @@ impl Hits<'_> {
     }
 }
 
+/// One pair of a packed leaf's blocks (`a`, `b`, and the mask of their lanes that hold
+/// triangles, as [`WideBvh::block_pairs`] gives them) against one ray (`r`, from `t_min` to
+/// the closest hit so far, `t_max` and `best`), from the pair's corners for the ray (or for a
+/// ray of the same origin and axes): the single ray's leaves and the packets' leaves share it.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn pair_closest<const W: usize, T: NodeTest<W>, O: TraversalObserver>(
+    cpu: T::Cpu,
+    r: &RayLanes,
+    corners: &T::Corners,
+    (a, b, lanes): (&Tri4, &Tri4, u32),
+    t_min: f32,
+    obs: &mut O,
+    t_max: &mut f32,
+    best: &mut Option<BvhHit>,
+) {
+    obs.prim_tested();
+    if lanes == 0xff {
+        obs.prim_tested();
+    }
+    let (mask, t, u, v) = T::intersect_corners(cpu, r, corners, t_min, *t_max);
+    let hits = Hits { mask: mask & lanes, t: &t, u: &u, v: &v };
+    hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
+}
+
 /// Keep `hit` as the closest so far if it is nearer than `best` (whose distance is `t_max`),
 /// or as near and in a lower slot. Ties go to the lower slot so that the closest hit does not
 /// depend on the order leaves are visited in: single rays and packets, which visit them in
@@ -376,14 +401,9 @@ where
             // pairs was a branch the leaf's size decided (and mispredicted). A lane beyond a
             // closer hit in the pair's first block is dropped by `closer` rather than by the
             // test: the same outcome as testing block by block.
-            for (a, b, lanes) in self.block_pairs(leaf) {
-                obs.prim_tested();
-                if lanes == 0xff {
-                    obs.prim_tested();
-                }
-                let (mask, t, u, v) = T::intersect_pair(one.cpu, one.lanes, a, b, t_min, *t_max);
-                let hits = Hits { mask: mask & lanes, t: &t, u: &u, v: &v };
-                hits.take(|lane| if lane < 4 { a.slot[lane] } else { b.slot[lane - 4] }, t_max, best);
+            for pair in self.block_pairs(leaf) {
+                let corners = T::pair_corners(one.cpu, one.lanes, pair.0, pair.1);
+                pair_closest::<W, T, O>(one.cpu, one.lanes, &corners, pair, t_min, obs, t_max, best);
             }
         } else {
             self.range_closest(leaf, one.ray, prims, obs, t_max, best);

@@ -10,7 +10,10 @@
 //! bounded over the packet by the smallest and largest inverse direction, so a child the
 //! packet test rejects is missed by every ray. A leaf's box is then tested per ray, exactly as the single-ray
 //! traversal tests it, and only the rays that hit it intersect its triangles, each with the
-//! single-ray leaf code (`WideBvh::leaf_closest`).
+//! single-ray leaf code (`pair_closest`). Where those rays also share their triangle axes (the
+//! dominant component of their directions), each pair of blocks is loaded and translated to
+//! the origin once for all of them (`NodeTest::pair_corners`), and each ray's test goes on
+//! from the shared corners.
 //!
 //! Each ray's closest hit is the one the single-ray traversal reports, bit for bit: the packet
 //! may visit more inner nodes than a ray would (never fewer), leaves are culled by the same
@@ -29,7 +32,7 @@ use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
-use super::traverse::{OneRay, sort_far_to_near};
+use super::traverse::{OneRay, pair_closest, sort_far_to_near};
 use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::math::Vec3A;
@@ -42,6 +45,18 @@ pub const PACKET: usize = 8;
 
 /// The closest hit of each ray of a packet (`None` beyond the rays given).
 pub type PacketHits = [Option<BvhHit>; PACKET];
+
+/// The set bits of `mask`, lowest first.
+#[inline(always)]
+pub(in crate::bvh::wide) fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
 
 /// The lesser of two numbers that are not NaN (the packet's rays are checked finite, their
 /// hits' distances are finite): one instruction, where `f32::min`'s handling of NaN costs
@@ -454,25 +469,55 @@ where
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
-                    let r = &rays[lane];
                     if made & 1 << lane == 0 {
                         // From the inverse direction the packet has: no division.
                         let inv = Vec3A::from_array(p.inv.map(|v| v.as_array()[lane]));
-                        singles[lane].write(RayLanes::with_inv(r, inv));
+                        singles[lane].write(RayLanes::with_inv(&rays[lane], inv));
                         made |= 1 << lane;
                     }
-                    // SAFETY: written above, or earlier as `made` records.
-                    let splat = unsafe { singles[lane].assume_init_ref() };
-                    let one = OneRay { ray: r, cpu: leaf_cpu, lanes: splat };
-                    obs[lane].entered_leaf(current.child);
-                    self.leaf_closest::<T, P, O>(
-                        current.child,
-                        &one,
-                        prims,
-                        &mut obs[lane],
-                        &mut t_max[lane],
-                        &mut hits[lane],
-                    );
+                }
+                // SAFETY: every lane of the entry was written above, or earlier as `made`
+                // records.
+                let single = |lane: usize| unsafe { singles[lane].assume_init_ref() };
+                let lead = current.lanes.trailing_zeros() as usize;
+                let shared = current.child.is_packed()
+                    && current.lanes & (current.lanes - 1) != 0
+                    && lanes_of(current.lanes).all(|lane| single(lane).tri.axes == single(lead).tri.axes);
+                if shared {
+                    // Rays of one origin with the same axes: each pair's corners are loaded and
+                    // translated once for all of them, and each ray goes on from there, pair by
+                    // pair as alone (the same tests in the same order, so the same hits).
+                    for lane in lanes_of(current.lanes) {
+                        obs[lane].entered_leaf(current.child);
+                    }
+                    for pair in self.block_pairs(current.child) {
+                        let corners = T::pair_corners(leaf_cpu, single(lead), pair.0, pair.1);
+                        for lane in lanes_of(current.lanes) {
+                            pair_closest::<W, T, O>(
+                                leaf_cpu,
+                                single(lane),
+                                &corners,
+                                pair,
+                                rays[lane].t.min,
+                                &mut obs[lane],
+                                &mut t_max[lane],
+                                &mut hits[lane],
+                            );
+                        }
+                    }
+                } else {
+                    for lane in lanes_of(current.lanes) {
+                        let one = OneRay { ray: &rays[lane], cpu: leaf_cpu, lanes: single(lane) };
+                        obs[lane].entered_leaf(current.child);
+                        self.leaf_closest::<T, P, O>(
+                            current.child,
+                            &one,
+                            prims,
+                            &mut obs[lane],
+                            &mut t_max[lane],
+                            &mut hits[lane],
+                        );
+                    }
                 }
                 t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
             } else {
