@@ -6,7 +6,7 @@
 //! the CPU has the features its intrinsics need: that is the proof each `unsafe` block here
 //! cites.
 
-use super::kernels::{NodeTest, PairHits, RayLanes, SlabOrigin, edges_f64_lanes, planes};
+use super::kernels::{NodeTest, PairHits, RayLanes, Row, SlabOrigin, edges_f64_lanes, planes};
 use super::simd::{Avx2, Avx512};
 use super::{Tri4, WideNode};
 use crate::geometry::TriRay;
@@ -20,8 +20,8 @@ pub struct Avx2Node8 {
     /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
     oinv_near: [std::arch::x86_64::__m256; 3],
     oinv_far: [std::arch::x86_64::__m256; 3],
-    near: [usize; 3],
-    far: [usize; 3],
+    near: [Row; 3],
+    far: [Row; 3],
 }
 
 impl NodeTest<8> for Avx2Node8 {
@@ -51,8 +51,8 @@ impl NodeTest<8> for Avx2Node8 {
         // is 32 bytes, as the aligned loads need; `d` holds eight floats.
         unsafe {
             // The same operations, in the same order, as the portable test: identical results.
-            let t = |row: usize, a: usize, oinv: &[__m256; 3]| {
-                _mm256_fmsub_ps(_mm256_load_ps(n.bounds[row].as_ptr()), self.inv[a], oinv[a])
+            let t = |row: Row, a: usize, oinv: &[__m256; 3]| {
+                _mm256_fmsub_ps(_mm256_load_ps(n.bounds[row as usize].as_ptr()), self.inv[a], oinv[a])
             };
             let t_max = _mm256_set1_ps(t_max.min(f32::MAX));
             let mut d = [0.0f32; 8];
@@ -229,8 +229,8 @@ pub struct Avx512Node16 {
     /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
     oinv_near: [std::arch::x86_64::__m512; 3],
     oinv_far: [std::arch::x86_64::__m512; 3],
-    near: [usize; 3],
-    far: [usize; 3],
+    near: [Row; 3],
+    far: [Row; 3],
 }
 
 impl NodeTest<16> for Avx512Node16 {
@@ -258,8 +258,8 @@ impl NodeTest<16> for Avx512Node16 {
         // 64 bytes, as the aligned loads need; `d` holds sixteen floats.
         unsafe {
             // The portable test's operations, in its order: identical results.
-            let t = |row: usize, a: usize, oinv: &[__m512; 3]| {
-                _mm512_fmsub_ps(_mm512_load_ps(n.bounds[row].as_ptr()), self.inv[a], oinv[a])
+            let t = |row: Row, a: usize, oinv: &[__m512; 3]| {
+                _mm512_fmsub_ps(_mm512_load_ps(n.bounds[row as usize].as_ptr()), self.inv[a], oinv[a])
             };
             let t_max = _mm512_set1_ps(t_max.min(f32::MAX));
             let mut d = [0.0f32; 16];

@@ -81,19 +81,57 @@ pub(super) fn edges_f64_lanes<const N: usize>(
     }
 }
 
+/// A row of [`WideNode::bounds`]: the children's lower x, y, z, then upper x, y, z planes. A
+/// type of six values rather than a `usize`, so that indexing the six rows needs no bounds
+/// check: a packet's rays keep their rows in memory, and each node test of each ray reloaded
+/// and checked all six.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Row {
+    /// Lower x.
+    MinX,
+    /// Lower y.
+    MinY,
+    /// Lower z.
+    MinZ,
+    /// Upper x.
+    MaxX,
+    /// Upper y.
+    MaxY,
+    /// Upper z.
+    MaxZ,
+}
+
+impl Row {
+    /// The row at index `i` (below 6).
+    const fn at(i: usize) -> Row {
+        match i {
+            0 => Row::MinX,
+            1 => Row::MinY,
+            2 => Row::MinZ,
+            3 => Row::MaxX,
+            4 => Row::MaxY,
+            _ => Row::MaxZ,
+        }
+    }
+}
+
 /// For each axis, the row of [`WideNode::bounds`] the ray enters a box by and the one it
 /// leaves by: the lower plane when the (safe) inverse direction is positive. Since
 /// `(lo - o) * inv <= (hi - o) * inv` for positive `inv` in rounded arithmetic too, this gives
 /// exactly the scalar test's `min`/`max` of the two plane distances with half the work.
 #[inline(always)]
-pub(super) fn planes(inv: Vec3A) -> ([usize; 3], [usize; 3]) {
+pub(super) fn planes(inv: Vec3A) -> ([Row; 3], [Row; 3]) {
     // By the mask of negative components (one compare for the three): a table lookup.
-    const PLANES: [([usize; 3], [usize; 3]); 8] = {
-        let mut t = [([0; 3], [0; 3]); 8];
+    const PLANES: [([Row; 3], [Row; 3]); 8] = {
+        let mut t = [([Row::MinX; 3], [Row::MinX; 3]); 8];
         let mut m = 0;
         while m < 8 {
             let (nx, ny, nz) = (m & 1, m >> 1 & 1, m >> 2);
-            t[m] = ([3 * nx, 1 + 3 * ny, 2 + 3 * nz], [3 - 3 * nx, 4 - 3 * ny, 5 - 3 * nz]);
+            t[m] = (
+                [Row::at(3 * nx), Row::at(1 + 3 * ny), Row::at(2 + 3 * nz)],
+                [Row::at(3 - 3 * nx), Row::at(4 - 3 * ny), Row::at(5 - 3 * nz)],
+            );
             m += 1;
         }
         t
@@ -299,8 +337,8 @@ macro_rules! portable_node_test {
             /// `o * inv` per axis, for the entry and the exit planes ([`SlabOrigin`]).
             oinv_near: [$v; 3],
             oinv_far: [$v; 3],
-            near: [usize; 3],
-            far: [usize; 3],
+            near: [Row; 3],
+            far: [Row; 3],
         }
 
         impl NodeTest<$w> for $name {
@@ -331,8 +369,8 @@ macro_rules! portable_node_test {
 
             #[inline(always)]
             fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
-                let t = |row: usize, a: usize, oinv: &[$v; 3]| {
-                    fused_mul_sub(<$v>::new(n.bounds[row]), self.inv[a], oinv[a])
+                let t = |row: Row, a: usize, oinv: &[$v; 3]| {
+                    fused_mul_sub(<$v>::new(n.bounds[row as usize]), self.inv[a], oinv[a])
                 };
                 let (on, of) = (&self.oinv_near, &self.oinv_far);
                 let near = [t(self.near[0], 0, on), t(self.near[1], 1, on), t(self.near[2], 2, on)];

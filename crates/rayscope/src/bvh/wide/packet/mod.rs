@@ -26,7 +26,7 @@
 
 use wide::f32x8;
 
-use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Slab, fused_mul_sub};
+use super::kernels::{Lanes, NodeTest, NodeWidth, RayLanes, Row, Slab, fused_mul_sub};
 use super::layout::WideNode;
 use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
@@ -86,8 +86,8 @@ pub struct Packet {
     /// Shared origin.
     o: Vec3A,
     /// Per axis, the rows of [`WideNode::bounds`] the rays enter and leave boxes by.
-    near_row: [usize; 3],
-    far_row: [usize; 3],
+    near_row: [Row; 3],
+    far_row: [Row; 3],
     /// Per axis, the smallest and largest inverse direction over the packet.
     inv_lo: [f32; 3],
     inv_hi: [f32; 3],
@@ -241,13 +241,13 @@ macro_rules! simd_packet_test {
             /// [`Packet::test`]). A method, not a closure: a closure is compiled without the
             /// caller's CPU features, and the intrinsics in it stayed calls.
             #[inline(always)]
-            fn bound<const LOWEST: bool>(&self, node: &WideNode<$w>, row: usize, a: usize) -> std::arch::x86_64::$v {
+            fn bound<const LOWEST: bool>(&self, node: &WideNode<$w>, row: Row, a: usize) -> std::arch::x86_64::$v {
                 use std::arch::x86_64::*;
                 // SAFETY: the CPU has the intrinsics' features (`self` was made with their
                 // token); nodes are 64-byte aligned and each row is `4 W` bytes (32 or 64), as
                 // the aligned load needs.
                 unsafe {
-                    let d = $sub($load(node.bounds[row].as_ptr()), self.o[a]);
+                    let d = $sub($load(node.bounds[row as usize].as_ptr()), self.o[a]);
                     let $gd = d;
                     let $pm = $ge;
                     let ($px, $py) = if LOWEST { (self.hi[a], self.lo[a]) } else { (self.lo[a], self.hi[a]) };
@@ -602,8 +602,8 @@ impl Packet {
         // The single-ray test rounds differently (`p * inv - o * inv`, fused): its distances
         // are within 2^-22 of the bound's magnitude plus `slack` of these (see `slack`), so
         // each bound is widened by a little more than that.
-        let bound = |row: usize, a: usize, lowest: bool| {
-            let d = rows[row] - f32x8::splat(self.o[a]);
+        let bound = |row: Row, a: usize, lowest: bool| {
+            let d = rows[row as usize] - f32x8::splat(self.o[a]);
             let (lo, hi) = (f32x8::splat(self.inv_lo[a]), f32x8::splat(self.inv_hi[a]));
             let ge = d.simd_ge(zero);
             let b = d * if lowest { ge.bitselect(lo, hi) } else { ge.bitselect(hi, lo) };
@@ -637,14 +637,14 @@ impl Packet {
             let (b, nr, fr) = (&node.bounds, self.near_row, self.far_row);
             let (inv, on, of) = (self.inv.map(v), self.oinv_near.map(v), self.oinv_far.map(v));
             let near = [
-                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[0]][i]), inv[0], on[0]),
-                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[1]][i]), inv[1], on[1]),
-                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[2]][i]), inv[2], on[2]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[0] as usize][i]), inv[0], on[0]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[1] as usize][i]), inv[1], on[1]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[nr[2] as usize][i]), inv[2], on[2]),
             ];
             let far = [
-                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[0]][i]), inv[0], of[0]),
-                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[1]][i]), inv[1], of[1]),
-                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[2]][i]), inv[2], of[2]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[0] as usize][i]), inv[0], of[0]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[1] as usize][i]), inv[1], of[1]),
+                _mm256_fmsub_ps(_mm256_set1_ps(b[fr[2] as usize][i]), inv[2], of[2]),
             ];
             let t_max = _mm256_min_ps(v(t_max), _mm256_set1_ps(f32::MAX));
             // `Slab::forward`: intervals from +0 on, compared as integers.
@@ -674,8 +674,8 @@ impl Packet {
     /// single-ray traversal tests a box (the same operations, lane by lane).
     #[inline(always)]
     fn leaf_lanes<const W: usize>(&self, node: &WideNode<W>, i: usize, t_max: f32x8) -> u32 {
-        let t = |row: usize, a: usize, oinv: &[f32x8; 3]| {
-            fused_mul_sub(f32x8::splat(node.bounds[row][i]), self.inv[a], oinv[a])
+        let t = |row: Row, a: usize, oinv: &[f32x8; 3]| {
+            fused_mul_sub(f32x8::splat(node.bounds[row as usize][i]), self.inv[a], oinv[a])
         };
         let (on, of) = (&self.oinv_near, &self.oinv_far);
         let near = [t(self.near_row[0], 0, on), t(self.near_row[1], 1, on), t(self.near_row[2], 2, on)];
