@@ -465,16 +465,14 @@ where
         let mut current = Entry { child: ChildRef::ROOT, lanes: p.active, near: 0.0 };
         loop {
             if current.child.is_leaf() {
-                let mut lanes = current.lanes;
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
+                for lane in lanes_of(current.lanes) {
                     if made & 1 << lane == 0 {
                         // From the inverse direction the packet has: no division.
                         let inv = Vec3A::from_array(p.inv.map(|v| v.as_array()[lane]));
                         singles[lane].write(RayLanes::with_inv(&rays[lane], inv));
                         made |= 1 << lane;
                     }
+                    obs[lane].entered_leaf(current.child);
                 }
                 // SAFETY: every lane of the entry was written above, or earlier as `made`
                 // records.
@@ -487,9 +485,6 @@ where
                     // Rays of one origin with the same axes: each pair's corners are loaded and
                     // translated once for all of them, and each ray goes on from there, pair by
                     // pair as alone (the same tests in the same order, so the same hits).
-                    for lane in lanes_of(current.lanes) {
-                        obs[lane].entered_leaf(current.child);
-                    }
                     for pair in self.block_pairs(current.child) {
                         let corners = T::pair_corners(leaf_cpu, single(lead), pair.0, pair.1);
                         for lane in lanes_of(current.lanes) {
@@ -508,7 +503,6 @@ where
                 } else {
                     for lane in lanes_of(current.lanes) {
                         let one = OneRay { ray: &rays[lane], cpu: leaf_cpu, lanes: single(lane) };
-                        obs[lane].entered_leaf(current.child);
                         self.leaf_closest::<T, P, O>(
                             current.child,
                             &one,
