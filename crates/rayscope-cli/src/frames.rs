@@ -13,8 +13,9 @@ use clap::Args;
 use indicatif::ProgressBar;
 use rayscope::animation::{AnimationSettings, Frame, FrameRange, MAX_FPS, MAX_FRAME};
 use rayscope::aov::{Aov, render_aov};
+use rayscope::film::Film;
 use rayscope::output::{Encoding, write_image};
-use rayscope::render::render_cancellable;
+use rayscope::render::render_reusing;
 use rayscope::scene::Scene;
 use rayscope::settings::RenderSettings;
 
@@ -138,6 +139,8 @@ pub fn render_frames(
     let cancel = crate::interrupt_flag();
     let count = animation.frames.len();
     let mut written = 0u32;
+    // One film for every frame: each renders into the pages the one before touched.
+    let mut film = None;
     for (i, number) in animation.frames.frames().enumerate() {
         let frame = animation.settings.frame(number, output);
         if skip_existing && frame.output.exists() {
@@ -146,7 +149,7 @@ pub fn render_frames(
         }
         bar.set_prefix(format!("frame {number} ({} of {count})", i + 1));
         bar.set_position(0);
-        let Some(times) = render_frame(scene, settings, &frame, how, &cancel, pool, bar)? else {
+        let Some(times) = render_frame(scene, settings, &frame, how, &mut film, &cancel, pool, bar)? else {
             bar.finish_and_clear();
             eprintln!(
                 "interrupted during frame {number}: it was not written; {} written. Run again with \
@@ -180,12 +183,15 @@ struct FrameTimes {
     render: std::time::Duration,
 }
 
-/// Render and write one frame; `None` when Ctrl-C stopped it (nothing written).
+/// Render and write one frame, in the film of the frame before where there is one (kept in
+/// `film` for the next); `None` when Ctrl-C stopped it (nothing written).
+#[allow(clippy::too_many_arguments)]
 fn render_frame(
     scene: &mut Scene,
     settings: &RenderSettings,
     frame: &Frame,
     how: FrameOutput,
+    film: &mut Option<Film>,
     cancel: &AtomicBool,
     pool: &rayon::ThreadPool,
     bar: &ProgressBar,
@@ -198,7 +204,8 @@ fn render_frame(
         // AOVs are the first hits at shutter open.
         Some(aov) => pool.install(|| render_aov(scene, settings, &scene.camera_motion().at(0.0), aov, &progress)),
         None => {
-            let out = pool.install(|| render_cancellable(scene, settings, cancel, &progress));
+            let reused = film.take().unwrap_or_else(|| Film::new(settings.width, settings.height));
+            let out = pool.install(|| render_reusing(scene, settings, cancel, &progress, reused));
             if cancel.load(Ordering::Relaxed) || !out.complete {
                 return Ok(None);
             }
@@ -210,6 +217,7 @@ fn render_frame(
                 );
             }
             let mut image = out.film.to_image();
+            *film = Some(out.film);
             rayscope::post::bloom::apply_to_image(&mut image, &settings.bloom);
             image
         }

@@ -37,7 +37,7 @@ use rayscope::motion::Interpolation;
 use rayscope::output::{Encoding, Format, write_image};
 use rayscope::progressive::{ImagingMode, Progressive};
 use rayscope::record::{MAX_RECORDED_RAYS, RayTree};
-use rayscope::render::render_cancellable;
+use rayscope::render::{render_cancellable, render_reusing};
 use rayscope::scene::{Scene, builtin};
 use rayscope::settings::{PixelFilter, RenderSettings, ShadingModel, TextureFilter};
 
@@ -765,18 +765,22 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
     } else {
         let mut out = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));
         let mut fastest = out.elapsed;
+        // Two films take turns: each render after the second writes to the pages of the one
+        // before last (`render_reusing`), and the last complete image is kept whole.
+        let mut spare = None;
         for _ in 1..args.repeat {
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
             bar.set_position(0);
-            let again = pool.install(|| render_cancellable(&scene, &settings, &cancel, &progress));
+            let film = spare.take().unwrap_or_else(|| Film::new(settings.width, settings.height));
+            let again = pool.install(|| render_reusing(&scene, &settings, &cancel, &progress, film));
             if cancel.load(Ordering::Relaxed) {
                 // Keep the complete image of an earlier render.
                 break;
             }
             fastest = fastest.min(again.elapsed);
-            out = again;
+            spare = Some(std::mem::replace(&mut out, again).film);
         }
         (out.film, out.rays, fastest)
     };

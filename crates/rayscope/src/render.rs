@@ -606,7 +606,32 @@ pub fn render_cancellable(
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> RenderOutput {
     let start = Instant::now();
-    let mut film = Film::new(settings.width, settings.height);
+    render_film(scene, settings, cancel, progress, Film::new(settings.width, settings.height), start)
+}
+
+/// [`render_cancellable`] in the memory of `film`, an earlier render's (its samples are
+/// dropped first: [`Film::cleared`]). The same image, bit for bit; renders one after another
+/// (`render --repeat`, an animation's frames) skip the page faults of a new film.
+pub fn render_reusing(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+    film: Film,
+) -> RenderOutput {
+    let start = Instant::now();
+    render_film(scene, settings, cancel, progress, film.cleared(settings.width, settings.height), start)
+}
+
+/// [`render_cancellable`] on `film`, a film with no samples, timed from `start`.
+fn render_film(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cancel: &AtomicBool,
+    progress: &(dyn Fn(RenderProgress) + Sync),
+    mut film: Film,
+    start: Instant,
+) -> RenderOutput {
     let pass = SamplePass { samples: settings.spp, limit: settings.spp, planned: settings.spp, seed: settings.seed };
     let (rays, complete) = render_pass(scene, settings, &scene.camera_motion(), &mut film, pass, cancel, progress);
     RenderOutput { film, rays, elapsed: start.elapsed(), complete }
@@ -787,6 +812,33 @@ mod tests {
                 }
             }
             assert!(shadowed > 10, "the surface shadows itself ({shadowed} dark pixels)");
+        }
+    }
+
+    /// A render into an earlier render's film equals a render into a new film, bit for bit
+    /// (sums, counts, residuals, dropped samples): after a one-sample film of the same size
+    /// (reused in place), after a cancelled one (half filled), after a film of `f64` sums and
+    /// after one of another size (both replaced by a new film).
+    #[test]
+    fn reused_films_render_as_new_ones() {
+        let scene = Scene::from_desc(&builtin::scene_desc("cornell-box").unwrap(), &LoadContext::default()).unwrap();
+        let settings = RenderSettings { width: 61, height: 47, ..RenderSettings::default() };
+        let fresh = render(&scene, &settings, &|_| {}).film;
+        let stopped = AtomicBool::new(false);
+        let stop_midway = |p: RenderProgress| stopped.store(p.done * 2 >= p.total, Ordering::Relaxed);
+        let cancelled = render_cancellable(&scene, &settings, &stopped, &stop_midway);
+        assert!(!cancelled.complete);
+        let earlier = [
+            ("one sample", render(&scene, &settings, &|_| {}).film),
+            ("cancelled", cancelled.film),
+            ("four samples", render(&scene, &RenderSettings { spp: 4, ..settings.clone() }, &|_| {}).film),
+            ("another size", render(&scene, &RenderSettings { width: 20, ..settings.clone() }, &|_| {}).film),
+        ];
+        for (name, film) in earlier {
+            let out = render_reusing(&scene, &settings, &AtomicBool::new(false), &|_| {}, film);
+            assert!(out.complete, "{name}");
+            assert_eq!(film_bits(&out.film), film_bits(&fresh), "{name}");
+            assert!(out.film == fresh, "{name}");
         }
     }
 

@@ -162,6 +162,26 @@ impl Film {
         Film { width, height, sums: Sums::zero(n), count: vec![0; n], residuals: Vec::new(), dropped: 0 }
     }
 
+    /// This film with no samples, sized `width` x `height`: [`Film::new`]'s film, made in
+    /// this one's memory where it can (the same size; `f32` sums, which a one-sample render
+    /// leaves). Renders one after another (`render --repeat`, an animation's frames) then
+    /// write to pages they have touched, where a new film's first writes fault in fresh
+    /// zeroed pages from the kernel: some 650 faults and 5-6 ms of kernel time a render at
+    /// 800x800 (the Cornell box on two threads, `perf stat`; see BENCHMARKS.md).
+    pub fn cleared(mut self, width: u32, height: u32) -> Film {
+        match &mut self.sums {
+            Sums::Single { sums, filled } if (self.width, self.height) == (width, height) => {
+                sums.fill([0.0; 3]);
+                *filled = false;
+                self.count.fill(0);
+                self.residuals.clear();
+                self.dropped = 0;
+                self
+            }
+            _ => Film::new(width, height),
+        }
+    }
+
     /// A film from its parts (as a partial film file holds them), or what is wrong with them:
     /// sizes that do not match `width * height`, a residual naming a pixel outside, or a pixel
     /// with no samples and a sum other than +0 (a render adds a pixel's first sample without
