@@ -240,6 +240,10 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             let mut k = 0;
             for (i, (ray, seen)) in rays.iter().zip(seen).enumerate() {
                 let Some(Seen { si, .. }) = seen else { continue };
+                // `direct` computes this sample again, by the same call (the same bits): the
+                // answers it needs are two bytes a hit, where the samples of eight lanes and
+                // up to eight lights would be three kilobytes to fill and read back for a
+                // square root and a division each.
                 let ls = light.center_sample(si.point);
                 if faces(si, &ls, si.shading_normal.dot(ls.wi)) {
                     shadow[k] = self
