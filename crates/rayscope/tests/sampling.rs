@@ -395,6 +395,14 @@ fn imaging_modes() {
     moved.start.position += Vec3A::X * 0.1;
     d.render_frame(&scene, &moved, &never, &|_| {});
     assert_eq!(d.film().sample_range(), (1, 1));
+    // A restart after one frame zeroes that frame's film in place (`Film::clear`): the same
+    // film as a new render's, bit for bit.
+    let mut r = Progressive::new(s.clone(), ImagingMode::Dynamic, None);
+    r.render_frame(&scene, &cam, &never, &|_| {});
+    r.render_frame(&scene, &moved, &never, &|_| {});
+    let mut fresh = Progressive::new(s.clone(), ImagingMode::Dynamic, None);
+    fresh.render_frame(&scene, &moved, &never, &|_| {});
+    assert_eq!(r.film(), fresh.film());
     // A settings change restarts too.
     d.set_settings(RenderSettings { light_samples: 3, ..s.clone() });
     assert_eq!(d.film().sample_range(), (0, 0));

@@ -162,24 +162,14 @@ impl Film {
         Film { width, height, sums: Sums::zero(n), count: vec![0; n], residuals: Vec::new(), dropped: 0 }
     }
 
-    /// This film with no samples, sized `width` x `height`: [`Film::new`]'s film, made in
-    /// this one's memory where it can (the same size; `f32` sums, which a one-sample render
-    /// leaves). Renders one after another (`render --repeat`, an animation's frames) then
-    /// write to pages they have touched, where a new film's first writes fault in fresh
-    /// zeroed pages from the kernel: some 650 faults and 5-6 ms of kernel time a render at
-    /// 800x800 (the Cornell box on two threads, `perf stat`; see BENCHMARKS.md).
+    /// This film with no samples, sized `width` x `height`: [`Film::new`]'s film, in this
+    /// one's memory where it is the same size ([`Film::clear`]).
     pub fn cleared(mut self, width: u32, height: u32) -> Film {
-        match &mut self.sums {
-            Sums::Single { sums, filled } if (self.width, self.height) == (width, height) => {
-                sums.fill([0.0; 3]);
-                *filled = false;
-                self.count.fill(0);
-                self.residuals.clear();
-                self.dropped = 0;
-                self
-            }
-            _ => Film::new(width, height),
+        if (self.width, self.height) != (width, height) {
+            return Film::new(width, height);
         }
+        self.clear();
+        self
     }
 
     /// A film from its parts (as a partial film file holds them), or what is wrong with them:
@@ -381,9 +371,20 @@ impl Film {
         self.dropped += n;
     }
 
-    /// Forget every sample.
+    /// Forget every sample: [`Film::new`]'s film of this size. `f32` sums (which a one-sample
+    /// render leaves) are zeroed in place, `f64` ones replaced. Renders one after another
+    /// (`render --repeat`, an animation's frames, the viewer's frames while the camera moves)
+    /// then write to pages they have touched, where a new film's first writes fault in fresh
+    /// zeroed pages from the kernel: some 650 faults and 5-6 ms of kernel time a render at
+    /// 800x800 (the Cornell box on two threads, `perf stat`; see BENCHMARKS.md).
     pub fn clear(&mut self) {
-        self.sums = Sums::zero(self.count.len());
+        match &mut self.sums {
+            Sums::Single { sums, filled } => {
+                sums.fill([0.0; 3]);
+                *filled = false;
+            }
+            Sums::Exact(_) => self.sums = Sums::zero(self.count.len()),
+        }
         self.count.fill(0);
         self.residuals.clear();
         self.dropped = 0;
