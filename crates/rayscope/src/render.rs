@@ -517,6 +517,9 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 total.rays.add(rays);
             };
             let mut rec = NoRecorder;
+            // Two loops over the lanes, one per way of shading: one loop choosing per lane
+            // (`match` on the shadows traced ahead or not) rendered the Cornell box 2% and the
+            // dragon 0.5% slower (BENCHMARKS.md, session 24).
             if self.shadows_ahead {
                 // Filled in place (`array::from_fn` built the kilobyte apart and copied it).
                 let mut seen = [None; PACKET];
