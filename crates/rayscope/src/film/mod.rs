@@ -6,6 +6,8 @@ pub mod exact_sum;
 
 use crate::math::Color;
 use exact_sum::ExactSum;
+use rayon::iter::{IndexedParallelIterator, ParallelIterator};
+use rayon::slice::ParallelSliceMut;
 
 /// A pixel's sums of samples, red, green and blue, in `f64`.
 pub type PixelSum = [f64; 3];
@@ -380,12 +382,21 @@ impl Film {
     pub fn clear(&mut self) {
         match &mut self.sums {
             Sums::Single { sums, filled } => {
-                sums.fill([0.0; 3]);
+                // On every thread: 16 bytes a pixel, 10 MB at 800x800, which one thread took
+                // 0.8 ms to zero while the others waited for the render to start.
+                const CHUNK: usize = 1 << 14;
+                let counts = self.count.par_chunks_mut(CHUNK);
+                sums.par_chunks_mut(CHUNK).zip(counts).for_each(|(sums, counts)| {
+                    sums.fill([0.0; 3]);
+                    counts.fill(0);
+                });
                 *filled = false;
             }
-            Sums::Exact(_) => self.sums = Sums::zero(self.count.len()),
+            Sums::Exact(_) => {
+                self.sums = Sums::zero(self.count.len());
+                self.count.fill(0);
+            }
         }
-        self.count.fill(0);
         self.residuals.clear();
         self.dropped = 0;
     }
