@@ -6,7 +6,6 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use rayscope::film::Film;
 use rayscope::render::render_reusing;
 use rayscope::scene::{Geometry, Scene};
 use rayscope::settings::RenderSettings;
@@ -201,14 +200,14 @@ pub fn run(assets: Option<&Path>, repetitions: usize, warmup: usize, threads: us
         let prims = scene.prim_refs();
         // Each render after the first writes to the film of the one before, as a viewer's or
         // `render --repeat`'s renders do (warm, like the peers the figures are set beside).
-        let mut film = Film::new(settings.width, settings.height);
+        let mut film = None;
         for k in 0..warmup + repetitions.max(1) {
             let start = Instant::now();
             let g = Geometry::build(&scene.meshes, &scene.spheres, &prims);
             let b = start.elapsed();
             std::hint::black_box(&g);
             let out = render_reusing(scene, &settings, &AtomicBool::new(false), &|_| {}, film);
-            film = out.film;
+            film = Some(out.film);
             if k >= warmup {
                 build = build.min(b);
                 if out.elapsed < best {

@@ -204,7 +204,7 @@ fn render_frame(
         // AOVs are the first hits at shutter open.
         Some(aov) => pool.install(|| render_aov(scene, settings, &scene.camera_motion().at(0.0), aov, &progress)),
         None => {
-            let reused = film.take().unwrap_or_else(|| Film::new(settings.width, settings.height));
+            let reused = film.take();
             let out = pool.install(|| render_reusing(scene, settings, cancel, &progress, reused));
             if cancel.load(Ordering::Relaxed) || !out.complete {
                 return Ok(None);

@@ -773,7 +773,7 @@ fn cmd_render(args: RenderArgs) -> Result<ExitCode> {
                 break;
             }
             bar.set_position(0);
-            let film = spare.take().unwrap_or_else(|| Film::new(settings.width, settings.height));
+            let film = spare.take();
             let again = pool.install(|| render_reusing(&scene, &settings, &cancel, &progress, film));
             if cancel.load(Ordering::Relaxed) {
                 // Keep the complete image of an earlier render.

@@ -608,33 +608,23 @@ pub fn render_cancellable(
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> RenderOutput {
-    let start = Instant::now();
-    render_film(scene, settings, cancel, progress, Film::new(settings.width, settings.height), start)
+    render_reusing(scene, settings, cancel, progress, None)
 }
 
-/// [`render_cancellable`] in the memory of `film`, an earlier render's (its samples are
-/// dropped first: [`Film::cleared`]). The same image, bit for bit; renders one after another
-/// (`render --repeat`, an animation's frames) skip the page faults of a new film.
+/// [`render_cancellable`] in the memory of `film`, an earlier render's, where one is given
+/// (its samples are dropped first: [`Film::cleared`]); a new film otherwise. The same image,
+/// bit for bit; renders one after another (`render --repeat`, an animation's frames, `rayscope
+/// bench`) skip the page faults of a new film.
 pub fn render_reusing(
     scene: &Scene,
     settings: &RenderSettings,
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
-    film: Film,
+    film: Option<Film>,
 ) -> RenderOutput {
     let start = Instant::now();
-    render_film(scene, settings, cancel, progress, film.cleared(settings.width, settings.height), start)
-}
-
-/// [`render_cancellable`] on `film`, a film with no samples, timed from `start`.
-fn render_film(
-    scene: &Scene,
-    settings: &RenderSettings,
-    cancel: &AtomicBool,
-    progress: &(dyn Fn(RenderProgress) + Sync),
-    mut film: Film,
-    start: Instant,
-) -> RenderOutput {
+    let (width, height) = (settings.width, settings.height);
+    let mut film = film.map_or_else(|| Film::new(width, height), |film| film.cleared(width, height));
     let pass = SamplePass { samples: settings.spp, limit: settings.spp, planned: settings.spp, seed: settings.seed };
     let (rays, complete) = render_pass(scene, settings, &scene.camera_motion(), &mut film, pass, cancel, progress);
     RenderOutput { film, rays, elapsed: start.elapsed(), complete }
@@ -838,7 +828,7 @@ mod tests {
             ("another size", render(&scene, &RenderSettings { width: 20, ..settings.clone() }, &|_| {}).film),
         ];
         for (name, film) in earlier {
-            let out = render_reusing(&scene, &settings, &AtomicBool::new(false), &|_| {}, film);
+            let out = render_reusing(&scene, &settings, &AtomicBool::new(false), &|_| {}, Some(film));
             assert!(out.complete, "{name}");
             assert_eq!(film_bits(&out.film), film_bits(&fresh), "{name}");
             assert!(out.film == fresh, "{name}");
