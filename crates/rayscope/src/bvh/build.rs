@@ -1,5 +1,6 @@
 //! Binned SAH construction, parallel over subtrees with rayon.
 
+use glam::UVec4;
 use rayon::join;
 
 use super::{Bvh, BvhNode, MAX_DEPTH};
@@ -519,15 +520,13 @@ fn find_split_in<const N: usize>(
     let mut bins = [[EMPTY_BIN; N]; 3];
     fill_bins::<N>(prims, centroids.min, scale, nb, &mut bins);
     // Candidates are ranked by area-weighted block counts; the division by the parent's area
-    // (which does not change the ranking) is done once, for the winner. Each plane's weight
-    // is stored (infinite where the plane is no split: nothing on one side) and the
-    // cheapest found afterwards: keeping the best so far while sweeping made every plane wait
-    // on the previous one's compare and select, a chain that was a third of the sweep's time.
-    let mut weights = [[f32::INFINITY; N]; 3];
-    sweep(&bins, extent, nb, params.block_size, |plane| {
-        let splits = plane.left != 0 && plane.right != 0;
-        weights[plane.axis][plane.bin] = if splits { plane.weight } else { f32::INFINITY };
-    });
+    // (which does not change the ranking) is done once, for the winner. The sweep gives every
+    // plane's weight and the cheapest is found afterwards: keeping the best so far while
+    // sweeping made every plane wait on the previous one's compare and select, a chain that
+    // was a third of the sweep's time.
+    let mut weights = [Vec4::INFINITY; N];
+    let swept = swept_axes(extent);
+    sweep(&bins, nb, params.block_size, |planes| weights[planes.bin] = planes.split_weights(swept));
     let best = first_min(&weights)?;
     Some(Split {
         axis: best.axis,
@@ -545,26 +544,33 @@ struct BestPlane {
     weight: f32,
 }
 
-/// The first (in axis, then bin order) of the smallest finite `weights`, NaN ones left out:
-/// the plane a sweep keeping the best so far by a strict `<` would end with. `None` when
-/// every weight is infinite or NaN.
+/// The first (in axis, then bin order) of the smallest finite weights, NaN ones left out:
+/// the plane a sweep keeping the best so far by a strict `<` would end with. `weights[bin]`
+/// holds the three axes' weights of that bin's plane in its `x`, `y`, `z` lanes (its `w`
+/// lane is not read). `None` when every weight is infinite or NaN.
 #[inline(always)]
-fn first_min<const N: usize>(weights: &[[f32; N]; 3]) -> Option<BestPlane> {
-    const { assert!(N.is_multiple_of(4)) };
-    let flat = weights.as_flattened();
+fn first_min<const N: usize>(weights: &[Vec4; N]) -> Option<BestPlane> {
+    // The `w` lanes made infinite, so that only the three axes count.
+    let xyz = |w: Vec4| w.with_w(f32::INFINITY);
     // Where a weight is NaN, `min` with it first returns the other operand (SSE's rule, and
     // `f32::min`'s on glam's scalar path), so a NaN never becomes the least.
-    let least = flat.chunks_exact(4).fold(Vec4::INFINITY, |m, c| Vec4::from_slice(c).min(m)).min_element();
+    let least = weights.iter().fold(Vec4::INFINITY, |m, &w| xyz(w).min(m)).min_element();
     if least == f32::INFINITY {
         return None;
     }
-    let at = Vec4::splat(least);
-    let first = flat.chunks_exact(4).enumerate().find_map(|(k, c)| {
-        let mask = Vec4::from_slice(c).cmpeq(at).bitmask();
-        (mask != 0).then(|| 4 * k + mask.trailing_zeros() as usize)
-    })?;
+    // Bit `bin` of `at[axis]`: that plane's weight is the least.
+    let mut at = [0u64; 3];
+    let eq = Vec4::splat(least);
+    for (bin, &w) in weights.iter().enumerate() {
+        let mask = xyz(w).cmpeq(eq).bitmask();
+        for (axis, bits) in at.iter_mut().enumerate() {
+            *bits |= u64::from(mask >> axis & 1) << bin;
+        }
+    }
+    let axis = at.iter().position(|&bits| bits != 0)?;
+    let bin = at[axis].trailing_zeros() as usize;
     // That plane's own weight: `least` may be the other zero.
-    Some(BestPlane { axis: first / N, bin: first % N, weight: flat[first] })
+    Some(BestPlane { axis, bin, weight: weights[bin][axis] })
 }
 
 /// The SAH cost of a split whose area-weighted block count is `weight`, under a parent of
@@ -574,48 +580,98 @@ pub(super) fn sah_cost(weight: f32, parent_area: f32, params: &BuildParams) -> f
     params.traversal_cost + params.intersection_cost * weight / parent_area
 }
 
-/// One plane of the SAH sweep, between bins `bin - 1` and `bin` of `axis`.
+/// One plane position of the SAH sweep on all three axes: the plane between bins `bin - 1`
+/// and `bin` of each axis, the axes in the `x`, `y`, `z` lanes.
 #[derive(Clone, Copy)]
-pub(super) struct SweptPlane {
-    pub(super) axis: usize,
+pub(super) struct SweptPlanes {
+    /// The plane's place: between bins `bin - 1` and `bin`.
     pub(super) bin: usize,
-    /// Area-weighted block counts: `A_left blocks_left + A_right blocks_right`.
-    pub(super) weight: f32,
-    pub(super) left: u32,
-    pub(super) right: u32,
+    /// Area-weighted block counts, `A_left blocks_left + A_right blocks_right`.
+    pub(super) weight: Vec4,
+    /// Primitives left of the plane.
+    pub(super) left: UVec4,
+    /// Primitives right of it.
+    pub(super) right: UVec4,
 }
 
-/// Every plane between the first `nb` bins of each axis with extent, in axis then bin order,
-/// handed to `visit`: the builder's one SAH sweep, which [`super::split_candidates`] also runs.
+impl SweptPlanes {
+    /// The weights of the planes that split (primitives on both sides, on an axis of
+    /// `swept`), infinite for the others (and in the `w` lane).
+    #[inline(always)]
+    fn split_weights(&self, swept: [bool; 3]) -> Vec4 {
+        let flat = glam::BVec4A::new(!swept[0], !swept[1], !swept[2], true);
+        // A count is zero exactly when its float is (see `to_f32`): the test in vector lanes.
+        let none = |n: UVec4| to_f32(n).cmpeq(Vec4::ZERO);
+        Vec4::select(none(self.left) | none(self.right) | flat, Vec4::INFINITY, self.weight)
+    }
+}
+
+/// The axes a sweep of centroids with this `extent` ([`Aabb::extent`], never negative or
+/// NaN) goes along: those with extent.
 #[inline(always)]
-pub(super) fn sweep<const N: usize>(
-    bins: &Bins<N>,
-    extent: Vec3A,
-    nb: usize,
-    bs: usize,
-    mut visit: impl FnMut(SweptPlane),
-) {
-    let mut right_area = [0.0f32; N];
-    let mut right_count = [0u32; N];
-    for (axis, bins) in bins.iter().enumerate() {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        // Sweep from the right to know, for each split plane, the box and count to its right.
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-        for i in (1..nb).rev() {
-            acc = acc.union(bins[i].bounds);
-            cnt += bins[i].count;
-            right_area[i] = acc.half_area();
-            right_count[i] = cnt;
-        }
-        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
-        for i in 1..nb {
-            acc = acc.union(bins[i - 1].bounds);
-            cnt += bins[i - 1].count;
-            let weight = acc.half_area() * blocks(cnt, bs) as f32 + right_area[i] * blocks(right_count[i], bs) as f32;
-            visit(SweptPlane { axis, bin: i, weight, left: cnt, right: right_count[i] });
-        }
+pub(super) fn swept_axes(extent: Vec3A) -> [bool; 3] {
+    [extent.x > 0.0, extent.y > 0.0, extent.z > 0.0]
+}
+
+/// The three axes' half-areas of boxes `x`, `y`, `z` (one per axis), as the lanes of a
+/// vector: [`Aabb::half_area`]'s arithmetic, in the same order, on all three at once.
+#[inline(always)]
+fn half_areas(x: &Aabb, y: &Aabb, z: &Aabb) -> Vec4 {
+    let (ex, ey, ez) = (x.extent(), y.extent(), z.extent());
+    let a = Vec4::new(ex.x, ey.x, ez.x, 0.0);
+    let b = Vec4::new(ex.y, ey.y, ez.y, 0.0);
+    let c = Vec4::new(ex.z, ey.z, ez.z, 0.0);
+    a * b + b * c + c * a
+}
+
+/// Block counts of leaves of `n` primitives, lane by lane ([`blocks`]).
+#[inline(always)]
+fn blocks4(n: UVec4, block_size: usize) -> UVec4 {
+    let bs = block_size.max(1) as u32;
+    if bs.is_power_of_two() {
+        (n + UVec4::splat(bs - 1)) >> UVec4::splat(bs.trailing_zeros())
+    } else {
+        UVec4::new(n.x.div_ceil(bs), n.y.div_ceil(bs), n.z.div_ceil(bs), n.w.div_ceil(bs))
+    }
+}
+
+/// A count as a float: exact below 2^24, and the conversion of a signed lane (one
+/// instruction) gives the unsigned value's float below 2^31, which a count of primitives
+/// indexed by 32 bits (16 + 16 in [`BuildPrim`]) never reaches as a block count.
+#[inline(always)]
+fn to_f32(n: UVec4) -> Vec4 {
+    n.as_ivec4().as_vec4()
+}
+
+/// The SAH sweep over the first `nb` bins of each axis, the three axes at once (in the
+/// lanes of a vector), each plane position `1..nb` handed to `visit` in order: the builder's
+/// one sweep, which [`super::split_candidates`] also runs. Each lane's arithmetic is that of
+/// a sweep of its axis alone. Only the axes of [`swept_axes`] are candidates.
+#[inline(always)]
+pub(super) fn sweep<const N: usize>(bins: &Bins<N>, nb: usize, bs: usize, mut visit: impl FnMut(SweptPlanes)) {
+    let count = |i: usize| UVec4::new(bins[0][i].count, bins[1][i].count, bins[2][i].count, 0);
+    // Sweep from the right to know, for each split plane, the boxes and counts to its right.
+    let mut right_area = [Vec4::ZERO; N];
+    let mut right_count = [UVec4::ZERO; N];
+    let (mut x, mut y, mut z, mut cnt) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, UVec4::ZERO);
+    for i in (1..nb).rev() {
+        x = x.union(bins[0][i].bounds);
+        y = y.union(bins[1][i].bounds);
+        z = z.union(bins[2][i].bounds);
+        cnt += count(i);
+        right_area[i] = half_areas(&x, &y, &z);
+        right_count[i] = cnt;
+    }
+    let (mut x, mut y, mut z, mut cnt) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, UVec4::ZERO);
+    for i in 1..nb {
+        x = x.union(bins[0][i - 1].bounds);
+        y = y.union(bins[1][i - 1].bounds);
+        z = z.union(bins[2][i - 1].bounds);
+        cnt += count(i - 1);
+        let left_blocks = to_f32(blocks4(cnt, bs));
+        let right_blocks = to_f32(blocks4(right_count[i], bs));
+        let weight = half_areas(&x, &y, &z) * left_blocks + right_area[i] * right_blocks;
+        visit(SweptPlanes { bin: i, weight, left: cnt, right: right_count[i] });
     }
 }
 
@@ -684,12 +740,14 @@ mod tests {
         for _ in 0..20_000 {
             let mut w = [[f32::INFINITY; 16]; 3];
             w.iter_mut().flatten().for_each(|x| *x = next());
-            let got = first_min(&w).map(|b| (b.axis, b.bin, b.weight));
+            let lanes: [Vec4; 16] = std::array::from_fn(|bin| Vec4::new(w[0][bin], w[1][bin], w[2][bin], next()));
+            let got = first_min(&lanes).map(|b| (b.axis, b.bin, b.weight));
             let want = scan(&w);
             assert_eq!(got.map(|g| (g.0, g.1)), want.map(|g| (g.0, g.1)), "{w:?}");
             assert_eq!(got.map(|g| g.2.to_bits()), want.map(|g| g.2.to_bits()), "{w:?}");
         }
-        assert!(first_min(&[[f32::INFINITY; 8]; 3]).is_none());
-        assert!(first_min(&[[f32::NAN; 8]; 3]).is_none());
+        assert!(first_min(&[Vec4::INFINITY; 8]).is_none());
+        assert!(first_min(&[Vec4::NAN; 8]).is_none());
+        assert!(first_min(&[Vec4::new(f32::INFINITY, f32::NAN, f32::INFINITY, 0.0); 8]).is_none());
     }
 }

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::build::{
-    Bounds, BuildParams, BuildPrim, EMPTY_BIN, MAX_BINS, bin_count, fill_bins, leaf_cost, sah_cost, sweep,
+    Bounds, BuildParams, BuildPrim, EMPTY_BIN, MAX_BINS, bin_count, fill_bins, leaf_cost, sah_cost, sweep, swept_axes,
 };
 use super::{Bvh, MAX_DEPTH};
 use crate::geometry::Aabb;
@@ -88,21 +88,28 @@ pub fn split_candidates(bvh: &Bvh, bounds: &[Aabb], node: u32, params: &BuildPar
     let mut bins = [[EMPTY_BIN; MAX_BINS]; 3];
     fill_bins::<MAX_BINS>(&prims, b.centroids.min, scale, nb, &mut bins);
     let parent_area = b.bounds.half_area().max(f32::MIN_POSITIVE);
+    let swept = swept_axes(extent);
+    let mut planes = Vec::with_capacity(nb);
+    sweep(&bins, nb, params.block_size, |p| planes.push(p));
     let mut axis: [Vec<Candidate>; 3] = Default::default();
     let (mut best_weight, mut chosen) = (f32::INFINITY, None);
-    sweep(&bins, extent, nb, params.block_size, |plane| {
-        let splits = plane.left != 0 && plane.right != 0;
-        if splits && plane.weight < best_weight {
-            best_weight = plane.weight;
-            chosen = Some(ChosenSplit { axis: plane.axis, index: axis[plane.axis].len() });
+    // In axis, then bin order: the order in which the builder breaks ties.
+    for (a, candidates) in axis.iter_mut().enumerate().filter(|(a, _)| swept[*a]) {
+        for p in &planes {
+            let (weight, left, right) = (p.weight[a], p.left[a], p.right[a]);
+            let splits = left != 0 && right != 0;
+            if splits && weight < best_weight {
+                best_weight = weight;
+                chosen = Some(ChosenSplit { axis: a, index: candidates.len() });
+            }
+            candidates.push(Candidate {
+                position: b.centroids.min[a] + p.bin as f32 / scale[a],
+                left,
+                right,
+                cost: splits.then(|| sah_cost(weight, parent_area, params)),
+            });
         }
-        axis[plane.axis].push(Candidate {
-            position: b.centroids.min[plane.axis] + plane.bin as f32 / scale[plane.axis],
-            left: plane.left,
-            right: plane.right,
-            cost: splits.then(|| sah_cost(plane.weight, parent_area, params)),
-        });
-    });
+    }
     let split = !n.is_leaf();
     Some(SplitCandidates {
         node,
