@@ -204,12 +204,6 @@ impl Bvh {
     }
 }
 
-#[derive(Clone, Copy)]
-pub(super) struct Bin {
-    bounds: Aabb,
-    count: u32,
-}
-
 struct Split {
     axis: usize,
     /// Primitives whose bin is below this go left.
@@ -404,10 +398,56 @@ fn bin_indices(rel: Vec3A, top: Vec3A) -> [u32; 4] {
 /// Most bins per axis the builder supports (its bins live on the stack).
 pub const MAX_BINS: usize = 32;
 
-/// `N` bins on each axis (of which a node uses the first `nb <= N`).
-pub(super) type Bins<const N: usize> = [[Bin; N]; 3];
+/// `N` bins on each axis (of which a node uses the first `nb <= N`): their boxes and their
+/// counts in arrays of their own. A box alone is 32 bytes, a shift from its index, where a
+/// box and its count made 48 (the binning's loop spent an instruction more on each address);
+/// and the bins a node clears are 25% fewer bytes.
+#[derive(Clone, Copy)]
+pub(super) struct Bins<const N: usize> {
+    bounds: [[Aabb; N]; 3],
+    counts: [[u32; N]; 3],
+}
 
-pub(super) const EMPTY_BIN: Bin = Bin { bounds: Aabb::EMPTY, count: 0 };
+impl<const N: usize> Bins<N> {
+    /// Every bin empty.
+    pub(super) const EMPTY: Bins<N> = Bins { bounds: [[Aabb::EMPTY; N]; 3], counts: [[0; N]; 3] };
+
+    /// Add a primitive of box `b` to bin `idx[axis]` of each axis.
+    #[inline(always)]
+    fn add(&mut self, idx: [u32; 4], b: Aabb) {
+        for ((bounds, counts), &i) in self.bounds.iter_mut().zip(&mut self.counts).zip(&idx) {
+            // The index is at most `nb - 1 < N`; the mask (N is a power of two) leaves it as
+            // it is and spares a bounds check per axis.
+            let i = i as usize & (N - 1);
+            bounds[i] = bounds[i].union(b);
+            counts[i] += 1;
+        }
+    }
+
+    /// Add the bins `o` of another set of primitives binned alike (the first `nb` of each
+    /// axis: the others are empty in both): unions and sums, exact in any order.
+    #[inline(always)]
+    fn merge(&mut self, o: &Bins<N>, nb: usize) {
+        for axis in 0..3 {
+            for i in 0..nb {
+                self.bounds[axis][i] = self.bounds[axis][i].union(o.bounds[axis][i]);
+                self.counts[axis][i] += o.counts[axis][i];
+            }
+        }
+    }
+
+    /// Bin `i`'s box on `axis`.
+    #[inline(always)]
+    pub(super) fn bounds(&self, axis: usize, i: usize) -> Aabb {
+        self.bounds[axis][i]
+    }
+
+    /// Bin `i`'s counts on the three axes, in the `x`, `y`, `z` lanes.
+    #[inline(always)]
+    pub(super) fn counts(&self, i: usize) -> UVec4 {
+        UVec4::new(self.counts[0][i], self.counts[1][i], self.counts[2][i], 0)
+    }
+}
 
 /// Primitives from which [`fill_bins`] bins in two sets: below, the second set's clearing
 /// and merging cost more than the waits it saves.
@@ -422,15 +462,15 @@ pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: V
     if prims.len() > PARALLEL_PASS {
         use rayon::prelude::*;
         let one = |c: &[BuildPrim]| {
-            let mut part = [[EMPTY_BIN; N]; 3];
+            let mut part = Bins::EMPTY;
             fill_bins_here::<N>(c, lo, scale, nb, &mut part);
             part
         };
         let merge = |mut a: Bins<N>, b: Bins<N>| {
-            merge_bins(&mut a, &b, nb);
+            a.merge(&b, nb);
             a
         };
-        *bins = prims.par_chunks(PASS_CHUNK).map(one).reduce(|| [[EMPTY_BIN; N]; 3], merge);
+        *bins = prims.par_chunks(PASS_CHUNK).map(one).reduce(|| Bins::EMPTY, merge);
     } else {
         fill_bins_here(prims, lo, scale, nb, bins);
     }
@@ -441,16 +481,7 @@ pub(super) fn fill_bins<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: V
 fn fill_bins_here<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, nb: usize, even: &mut Bins<N>) {
     const { assert!(N.is_power_of_two()) };
     let top = Vec3A::splat((nb - 1) as f32);
-    let add = |bins: &mut Bins<N>, p: &BuildPrim| {
-        let idx = bin_indices((p.centroid() - lo) * scale, top);
-        for (axis, axis_bins) in bins.iter_mut().enumerate() {
-            // The index is at most `nb - 1 < N`; the mask (N is a power of two) leaves it
-            // as it is and spares a bounds check per axis.
-            let b = &mut axis_bins[idx[axis] as usize & (N - 1)];
-            b.bounds = b.bounds.union(p.bounds());
-            b.count += 1;
-        }
-    };
+    let add = |bins: &mut Bins<N>, p: &BuildPrim| bins.add(bin_indices((p.centroid() - lo) * scale, top), p.bounds());
     // Two sets of bins, for the even and the odd primitives, merged at the end: neighbours in
     // a mesh's order often land in the same bins, and with one set each primitive's update
     // waited for the previous one's store to that bin. Unions and counts are exact, so the
@@ -461,7 +492,7 @@ fn fill_bins_here<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, 
         }
         return;
     }
-    let mut odd = [[EMPTY_BIN; N]; 3];
+    let mut odd = Bins::EMPTY;
     let mut two = prims.chunks_exact(2);
     for p in &mut two {
         add(even, &p[0]);
@@ -470,19 +501,7 @@ fn fill_bins_here<const N: usize>(prims: &[BuildPrim], lo: Vec3A, scale: Vec3A, 
     if let [p] = two.remainder() {
         add(even, p);
     }
-    merge_bins(even, &odd, nb);
-}
-
-/// Add to bins `a` the bins `b` of another set of primitives binned alike (the first `nb` of
-/// each axis: the others are empty in both): unions and sums, exact in any order.
-#[inline(always)]
-fn merge_bins<const N: usize>(a: &mut Bins<N>, b: &Bins<N>, nb: usize) {
-    for (a, b) in a.iter_mut().zip(b) {
-        for (a, b) in a[..nb].iter_mut().zip(&b[..nb]) {
-            a.bounds = a.bounds.union(b.bounds);
-            a.count += b.count;
-        }
-    }
+    even.merge(&odd, nb);
 }
 
 /// The cheapest binned SAH split over the three axes, or `None` when all centroids coincide.
@@ -517,7 +536,7 @@ fn find_split_in<const N: usize>(
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     // A zero extent gives an infinite scale; such an axis is skipped below.
     let scale = Vec3A::splat(nb as f32) / extent;
-    let mut bins = [[EMPTY_BIN; N]; 3];
+    let mut bins = Bins::EMPTY;
     fill_bins::<N>(prims, centroids.min, scale, nb, &mut bins);
     // Candidates are ranked by area-weighted block counts; the division by the parent's area
     // (which does not change the ranking) is done once, for the winner. The sweep gives every
@@ -649,25 +668,24 @@ fn to_f32(n: UVec4) -> Vec4 {
 /// a sweep of its axis alone. Only the axes of [`swept_axes`] are candidates.
 #[inline(always)]
 pub(super) fn sweep<const N: usize>(bins: &Bins<N>, nb: usize, bs: usize, mut visit: impl FnMut(SweptPlanes)) {
-    let count = |i: usize| UVec4::new(bins[0][i].count, bins[1][i].count, bins[2][i].count, 0);
     // Sweep from the right to know, for each split plane, the boxes and counts to its right.
     let mut right_area = [Vec4::ZERO; N];
     let mut right_count = [UVec4::ZERO; N];
     let (mut x, mut y, mut z, mut cnt) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, UVec4::ZERO);
     for i in (1..nb).rev() {
-        x = x.union(bins[0][i].bounds);
-        y = y.union(bins[1][i].bounds);
-        z = z.union(bins[2][i].bounds);
-        cnt += count(i);
+        x = x.union(bins.bounds(0, i));
+        y = y.union(bins.bounds(1, i));
+        z = z.union(bins.bounds(2, i));
+        cnt += bins.counts(i);
         right_area[i] = half_areas(&x, &y, &z);
         right_count[i] = cnt;
     }
     let (mut x, mut y, mut z, mut cnt) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, UVec4::ZERO);
     for i in 1..nb {
-        x = x.union(bins[0][i - 1].bounds);
-        y = y.union(bins[1][i - 1].bounds);
-        z = z.union(bins[2][i - 1].bounds);
-        cnt += count(i - 1);
+        x = x.union(bins.bounds(0, i - 1));
+        y = y.union(bins.bounds(1, i - 1));
+        z = z.union(bins.bounds(2, i - 1));
+        cnt += bins.counts(i - 1);
         let left_blocks = to_f32(blocks4(cnt, bs));
         let right_blocks = to_f32(blocks4(right_count[i], bs));
         let weight = half_areas(&x, &y, &z) * left_blocks + right_area[i] * right_blocks;

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::build::{
-    Bounds, BuildParams, BuildPrim, EMPTY_BIN, MAX_BINS, bin_count, fill_bins, leaf_cost, sah_cost, sweep, swept_axes,
+    Bins, Bounds, BuildParams, BuildPrim, MAX_BINS, bin_count, fill_bins, leaf_cost, sah_cost, sweep, swept_axes,
 };
 use super::{Bvh, MAX_DEPTH};
 use crate::geometry::Aabb;
@@ -85,7 +85,7 @@ pub fn split_candidates(bvh: &Bvh, bounds: &[Aabb], node: u32, params: &BuildPar
     let nb = bin_count(prims.len(), params);
     let extent = b.centroids.extent();
     let scale = Vec3A::splat(nb as f32) / extent;
-    let mut bins = [[EMPTY_BIN; MAX_BINS]; 3];
+    let mut bins = Bins::<MAX_BINS>::EMPTY;
     fill_bins::<MAX_BINS>(&prims, b.centroids.min, scale, nb, &mut bins);
     let parent_area = b.bounds.half_area().max(f32::MIN_POSITIVE);
     let swept = swept_axes(extent);
