@@ -366,7 +366,8 @@ fn subtree(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, params
 
 /// Intersection blocks a leaf of `n` primitives takes with `block_size` per block; by a shift
 /// where the size is a power of two (always, in practice): the SAH sweep counts blocks twice
-/// per candidate plane, and a division there showed in profiles.
+/// per candidate plane ([`blocks4`], its three axes at once), and a division there showed in
+/// profiles.
 #[inline(always)]
 fn blocks(n: u32, block_size: usize) -> u32 {
     let bs = block_size.max(1) as u32;
@@ -643,14 +644,15 @@ fn half_areas(x: &Aabb, y: &Aabb, z: &Aabb) -> Vec4 {
     a * b + b * c + c * a
 }
 
-/// Block counts of leaves of `n` primitives, lane by lane ([`blocks`]).
+/// Block counts of leaves of `n` primitives, lane by lane: [`blocks`] of each lane, its shift
+/// done on the four lanes at once.
 #[inline(always)]
 fn blocks4(n: UVec4, block_size: usize) -> UVec4 {
     let bs = block_size.max(1) as u32;
     if bs.is_power_of_two() {
         (n + UVec4::splat(bs - 1)) >> UVec4::splat(bs.trailing_zeros())
     } else {
-        UVec4::new(n.x.div_ceil(bs), n.y.div_ceil(bs), n.z.div_ceil(bs), n.w.div_ceil(bs))
+        UVec4::from_array(n.to_array().map(|c| blocks(c, block_size)))
     }
 }
 
@@ -749,6 +751,17 @@ mod tests {
             }
         }
         best
+    }
+
+    #[test]
+    fn blocks4_is_blocks_lane_by_lane() {
+        for bs in 1..=9 {
+            for n in [0, 1, 2, 3, 4, 5, 7, 8, 9, 1000, u32::MAX >> 1] {
+                let lanes = UVec4::new(n, n + 1, n / 2, n.saturating_sub(3));
+                let want = lanes.to_array().map(|c| blocks(c, bs));
+                assert_eq!(blocks4(lanes, bs).to_array(), want, "{n} in blocks of {bs}");
+            }
+        }
     }
 
     #[test]
