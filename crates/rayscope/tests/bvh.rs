@@ -834,6 +834,41 @@ fn soup_and_shadow_packets() -> impl Strategy<Value = (Vec<Shape>, Vec<Vec<Ray>>
     })
 }
 
+/// A triangle soup and packets of up to eight shadow rays towards one light far outside it,
+/// each through a point of a triangle (often a vertex or an edge: the boxes' corners and
+/// faces) from a little behind it, or from the point itself.
+fn soup_and_converging_shadow_packets() -> impl Strategy<Value = (Vec<Shape>, Vec<Vec<Ray>>)> {
+    soup().prop_flat_map(|(scale, shapes)| {
+        let corner = prop_oneof![Just(0.0f32), Just(1.0), 0.0f32..=1.0];
+        let aim = (any::<prop::sample::Index>(), corner.clone(), corner, prop_oneof![Just(0.0f32), 0.0f32..0.5]);
+        let packet = (point(1.0), prop::collection::vec(aim, 1..=8));
+        let triangles = shapes.clone();
+        let packets = prop::collection::vec(packet, 1..8).prop_map(move |packets| {
+            packets
+                .into_iter()
+                .map(|(light, aims)| {
+                    let light = light.normalize_or(Vec3A::X) * (3.0 * scale);
+                    aims.into_iter()
+                        .map(|(at, u, v, behind)| {
+                            let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                            let point = match triangles.get(at.index(triangles.len().max(1))) {
+                                Some(Shape::Triangle(t)) => t.v0 + u * (t.v1 - t.v0) + v * (t.v2 - t.v0),
+                                _ => Vec3A::ZERO,
+                            };
+                            let origin = point + (point - light) * behind;
+                            let to = light - origin;
+                            let mut ray = Ray::new(origin, to.normalize_or(Vec3A::Y));
+                            ray.t.max = to.length() * (1.0 - 1e-4);
+                            ray
+                        })
+                        .collect()
+                })
+                .collect()
+        });
+        (Just(shapes), packets)
+    })
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, failure_persistence: None, ..ProptestConfig::default() })]
 
@@ -841,6 +876,13 @@ proptest! {
     /// any-hit answer, at both widths and on the detected and the portable SIMD level.
     #[test]
     fn soup_shadow_packets_equal_single_rays((shapes, packets) in soup_and_shadow_packets()) {
+        check_shadow_packets_in(&shapes, &packets);
+    }
+
+    /// So do shadow rays converging on a light through the soup's vertices and edges, where
+    /// the boxes' tests are closest to their rounding.
+    #[test]
+    fn converging_shadow_packets_equal_single_rays((shapes, packets) in soup_and_converging_shadow_packets()) {
         check_shadow_packets_in(&shapes, &packets);
     }
 }
