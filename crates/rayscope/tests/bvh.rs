@@ -527,6 +527,16 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
     }
 }
 
+/// A shadow ray from `origin` towards a point light at `light`, stopping just short of it as
+/// shadow rays do (up the y axis where the way there has no finite direction: at scales near
+/// 1e30 its length overflows).
+fn shadow_ray_to(origin: Vec3A, light: Vec3A) -> Ray {
+    let to = light - origin;
+    let mut r = Ray::new(origin, to.normalize_or(Vec3A::Y));
+    r.t.max = to.length() * (1.0 - 1e-4);
+    r
+}
+
 /// Packets of shadow rays: each ray from its own origin (scattered over a patch, as the hits
 /// of neighbouring camera rays are) towards one light point, stopping short of it as shadow
 /// rays do; one packet in four from origins anywhere in any directions, a few rays starting
@@ -541,14 +551,7 @@ fn random_shadow_packets(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec<Ray>> 
             (0..len)
                 .map(|_| {
                     let origin = if scattered { rng.vec3(-spread, spread) } else { patch + rng.vec3(-0.05, 0.05) };
-                    let mut r = if scattered {
-                        Ray::new(origin, rng.dir())
-                    } else {
-                        let to = light - origin;
-                        let mut r = Ray::new(origin, to.normalize());
-                        r.t.max = to.length() * (1.0 - 1e-4);
-                        r
-                    };
+                    let mut r = if scattered { Ray::new(origin, rng.dir()) } else { shadow_ray_to(origin, light) };
                     if rng.f32() < 0.05 {
                         r.t.min = -0.1;
                     }
@@ -755,9 +758,8 @@ fn ray(scale: f32, shapes: Vec<Shape>) -> impl Strategy<Value = Ray> {
     let aim = (prop::bool::weighted(0.7), any::<prop::sample::Index>(), 0.0f32..=1.0, 0.0f32..=1.0);
     let interval = prop::option::weighted(0.2, 0.0f32..3.0);
     (point(2.0 * scale), point(1.0), aim, interval).prop_map(move |(origin, dir, (aim, at, u, v), t_max)| {
-        let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
-        let dir = match shapes.get(at.index(shapes.len().max(1))) {
-            Some(Shape::Triangle(t)) if aim => (t.v0 + u * (t.v1 - t.v0) + v * (t.v2 - t.v0) - origin) * (1.0 / scale),
+        let dir = match point_on(&shapes, at, u, v) {
+            Some(p) if aim => (p - origin) * (1.0 / scale),
             _ => dir,
         };
         let mut ray = Ray::new(origin, dir);
@@ -766,6 +768,16 @@ fn ray(scale: f32, shapes: Vec<Shape>) -> impl Strategy<Value = Ray> {
         }
         ray
     })
+}
+
+/// The point of shape `at` of `shapes` at barycentrics `(u, v)` (both in `[0, 1]`, folded
+/// into the triangle where `u + v > 1`), if that shape is a triangle.
+fn point_on(shapes: &[Shape], at: prop::sample::Index, u: f32, v: f32) -> Option<Vec3A> {
+    let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+    match shapes.get(at.index(shapes.len().max(1))) {
+        Some(Shape::Triangle(t)) => Some(t.v0 + u * (t.v1 - t.v0) + v * (t.v2 - t.v0)),
+        _ => None,
+    }
 }
 
 /// Whether brute force's answer is one a BVH must give for `ray`: every primitive hit within
@@ -850,16 +862,8 @@ fn soup_and_converging_shadow_packets() -> impl Strategy<Value = (Vec<Shape>, Ve
                     let light = light.normalize_or(Vec3A::X) * (3.0 * scale);
                     aims.into_iter()
                         .map(|(at, u, v, behind)| {
-                            let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
-                            let point = match triangles.get(at.index(triangles.len().max(1))) {
-                                Some(Shape::Triangle(t)) => t.v0 + u * (t.v1 - t.v0) + v * (t.v2 - t.v0),
-                                _ => Vec3A::ZERO,
-                            };
-                            let origin = point + (point - light) * behind;
-                            let to = light - origin;
-                            let mut ray = Ray::new(origin, to.normalize_or(Vec3A::Y));
-                            ray.t.max = to.length() * (1.0 - 1e-4);
-                            ray
+                            let point = point_on(&triangles, at, u, v).unwrap_or(Vec3A::ZERO);
+                            shadow_ray_to(point + (point - light) * behind, light)
                         })
                         .collect()
                 })
