@@ -11,6 +11,7 @@ use crate::bvh::{PACKET, TraversalLog};
 use crate::camera::Camera;
 use crate::cone::{Footprint, NoCone, RayCone};
 use crate::light::{Light, LightSample};
+use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3A, reflect};
 use crate::ray::Ray;
 use crate::record::{
@@ -188,7 +189,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             None => self.miss(ray, ctx),
             Some(hit) => {
                 let seen = self.arrive(ray, hit, cone, ctx.recorder);
-                self.shade_seen(ray, &seen, depth, weight, FirstShadows::NONE, ctx)
+                self.shade_seen(ray, &seen, depth, weight, TracedAhead::NONE, ctx)
             }
         };
         ctx.recorder.end_ray(color);
@@ -206,7 +207,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             && s.shadows
             && self.scene.prim_count() >= SHADOWS_AHEAD_PRIMS
             && !self.scene.has_transparency
-            && (1..=FirstShadows::LIGHTS).contains(&self.scene.lights.len())
+            && (1..=TracedAhead::LIGHTS).contains(&self.scene.lights.len())
             && self.scene.lights.iter().all(|l| self.shaded_from_one_point(l))
     }
 
@@ -231,9 +232,9 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// and the same answers as traced one by one while shading; where rays from neighbouring
     /// pixels converge on a light, one walk of the tree serves them all. Only for
     /// [`Integrator::shadows_ahead`].
-    pub fn first_shadows(&self, rays: &[Ray], seen: &[Option<Seen<C>>; PACKET]) -> [FirstShadows; PACKET] {
-        let mut ahead = [FirstShadows::NONE; PACKET];
-        for (l, light) in self.scene.lights.iter().enumerate().take(FirstShadows::LIGHTS) {
+    pub fn first_shadows(&self, rays: &[Ray], seen: &[Option<Seen<C>>; PACKET]) -> [TracedAhead; PACKET] {
+        let mut ahead = [TracedAhead::NONE; PACKET];
+        for (l, light) in self.scene.lights.iter().enumerate().take(TracedAhead::LIGHTS) {
             // Lanes beyond `k` are never traced.
             let mut shadow = [rays[0]; PACKET];
             let mut lane = [0; PACKET];
@@ -262,15 +263,60 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         ahead
     }
 
+    /// Whether the mirror rays of camera packets' hits are traced ahead
+    /// ([`Integrator::first_mirrors`]): where reflections are on and some material reflects
+    /// as a sharp mirror.
+    pub fn mirrors_ahead(&self) -> bool {
+        let s = self.settings;
+        s.shading
+            && s.reflections
+            && s.max_depth > 0
+            && self.scene.materials.iter().any(|m| m.ks.max_element() > 0.0 && self.mirrors_sharply(m))
+    }
+
+    /// Whether `mat` reflects along the mirror direction alone (one ray), rather than over
+    /// a glossy lobe.
+    #[inline(always)]
+    fn mirrors_sharply(&self, mat: &Material) -> bool {
+        self.settings.gloss_samples == 0 || !mat.glossiness.unwrap_or(mat.shininess).is_finite()
+    }
+
+    /// The mirror rays of a packet's hits that reflect, traced ahead as one any-hit packet:
+    /// those found to hit nothing are marked in `ahead`, and their reflection is then shaded
+    /// as a miss without a closest-hit walk (the same answer: nothing blocks a ray exactly
+    /// when it has a closest hit). Most mirror rays off a lone object leave the scene, and an
+    /// any-hit walk of them together costs less than a closest-hit walk of each.
+    pub fn first_mirrors(&self, rays: &[Ray], seen: &[Option<Seen<C>>; PACKET], ahead: &mut [TracedAhead; PACKET]) {
+        let mut mirror = [rays[0]; PACKET];
+        let mut lane = [0; PACKET];
+        let mut k = 0;
+        for (i, (ray, seen)) in rays.iter().zip(seen).enumerate() {
+            let Some(Seen { si, .. }) = seen else { continue };
+            let mat = &self.scene.materials[si.material as usize];
+            if mat.ks.max_element() > 0.0 && self.mirrors_sharply(mat) {
+                mirror[k] = Ray::spawn(si.point, si.geo_normal, mirror_dir(ray, si), ray.time);
+                lane[k] = i;
+                k += 1;
+            }
+        }
+        if k == 0 {
+            return;
+        }
+        let blocked = self.scene.blocked_packet(&mirror[..k]);
+        for (j, &i) in lane[..k].iter().enumerate() {
+            ahead[i].mirror_missed = blocked >> j & 1 == 0;
+        }
+    }
+
     /// [`Integrator::li_hit`] for a camera ray whose hit has been seen
-    /// ([`Integrator::seen`]) and whose first shadow rays were traced ahead (`ahead`): the
-    /// same colour, the same ray counts.
+    /// ([`Integrator::seen`]) and whose first shadow and mirror rays were traced ahead
+    /// (`ahead`): the same colour, the same ray counts.
     #[inline(always)]
     pub fn li_seen<R: RayRecorder>(
         &self,
         ray: &Ray,
         seen: Option<&Seen<C>>,
-        ahead: FirstShadows,
+        ahead: TracedAhead,
         ctx: &mut PathContext<R>,
     ) -> Color {
         self.begin_ray(ray, None, RayKind::Camera, 0, Color::ONE, ctx);
@@ -330,7 +376,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     }
 
     /// The colour a ray of `weight` brings back from what it sees (`seen`), told to the
-    /// recorder; `ahead`: the shadow rays already traced from there.
+    /// recorder; `ahead`: the shadow and mirror rays already traced from there.
     #[inline(always)]
     fn shade_seen<R: RayRecorder>(
         &self,
@@ -338,7 +384,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         seen: &Seen<C>,
         depth: u32,
         weight: Color,
-        ahead: FirstShadows,
+        ahead: TracedAhead,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let Seen { hit, si, cone } = seen;
@@ -367,7 +413,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         depth: u32,
         weight: Color,
         cone: C,
-        ahead: FirstShadows,
+        ahead: TracedAhead,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let s = self.settings;
@@ -391,7 +437,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             // The reflection reaches the pixel through `ks`, and through the opacity by which
             // the blend below scales the surface's colour.
             let reflected = if transmits { weight * mat.ks * mat.transparency } else { weight * mat.ks };
-            color += mat.ks * self.reflection(ray, si, depth, reflected, cone.reflected(), ctx);
+            color += mat.ks * self.reflection(ray, si, depth, reflected, cone.reflected(), ahead.mirror_missed, ctx);
         }
         if transmits {
             // A branch that adaptive depth control stops adds nothing, as in POV-Ray: the
@@ -437,6 +483,9 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// `weight` is the whole reflection's; each of `n` glossy rays weighs `1/n` of it. A
     /// reflection that adaptive depth control stops returns black. `cone` is the mirror
     /// ray's footprint, which glossy rays share (their lobe's blur is not added to it).
+    /// `mirror_missed`: the mirror ray was traced ahead ([`Integrator::first_mirrors`]) and
+    /// hits nothing.
+    #[allow(clippy::too_many_arguments)]
     fn reflection<R: RayRecorder>(
         &self,
         ray: &Ray,
@@ -444,21 +493,23 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         depth: u32,
         weight: Color,
         cone: C,
+        mirror_missed: bool,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let mat = &self.scene.materials[si.material as usize];
-        let mirror = reflect(ray.dir, si.shading_normal).normalize();
-        // A shading normal can tilt the mirror direction below the surface; such a ray would
-        // start inside the object, so reflect about the geometric normal instead.
-        let mirror = if mirror.dot(si.geo_normal) > 0.0 { mirror } else { reflect(ray.dir, si.geo_normal).normalize() };
-        let exponent = mat.glossiness.unwrap_or(mat.shininess);
-        if self.settings.gloss_samples == 0 || !exponent.is_finite() {
+        let mirror = mirror_dir(ray, si);
+        if self.mirrors_sharply(mat) {
             if !self.worth_casting(RayKind::Reflection, 1, weight, ctx) {
                 return Color::ZERO;
             }
             let r = Ray::spawn(si.point, si.geo_normal, mirror, ray.time);
+            // A recorder wants the ray's walk: it is traced again (the same answer).
+            if mirror_missed && !R::RECORDS {
+                return self.trace(&r, None, None, RayKind::Reflection, depth + 1, weight, cone, ctx);
+            }
             return self.cast(&r, RayKind::Reflection, depth + 1, weight, cone, ctx);
         }
+        let exponent = mat.glossiness.unwrap_or(mat.shininess);
         let n = if ctx.glossy_split { 1 } else { self.settings.gloss_samples };
         let weight = weight / n as f32;
         if !self.worth_casting(RayKind::Glossy, n, weight, ctx) {
@@ -490,7 +541,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         &self,
         ray: &Ray,
         si: &SurfaceInteraction,
-        ahead: FirstShadows,
+        ahead: TracedAhead,
         ctx: &mut PathContext<R>,
     ) -> Vec3A {
         self.direct::<true, R>(ray, si, ahead, ctx)
@@ -512,7 +563,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         &self,
         ray: &Ray,
         si: &SurfaceInteraction,
-        ahead: FirstShadows,
+        ahead: TracedAhead,
         ctx: &mut PathContext<R>,
     ) -> Vec3A {
         let mut sum = Color::ZERO;
@@ -724,6 +775,15 @@ fn faces(si: &SurfaceInteraction, ls: &LightSample, cos: f32) -> bool {
     !(cos <= 0.0 || si.geo_normal.dot(ls.wi) <= 0.0 || ls.distance <= 0.0)
 }
 
+/// The direction `ray` reflects to at `si`: about the shading normal, or about the geometric
+/// normal where the shading normal would tilt it below the surface (the ray would then start
+/// inside the object).
+#[inline(always)]
+fn mirror_dir(ray: &Ray, si: &SurfaceInteraction) -> Vec3A {
+    let mirror = reflect(ray.dir, si.shading_normal).normalize();
+    if mirror.dot(si.geo_normal) > 0.0 { mirror } else { reflect(ray.dir, si.geo_normal).normalize() }
+}
+
 /// What a ray sees at its closest hit, found before it is shaded: the hit, the surface
 /// there, and the ray's footprint arrived there ([`Integrator::seen`]).
 #[derive(Clone, Copy, Debug)]
@@ -733,19 +793,22 @@ pub struct Seen<C> {
     cone: C,
 }
 
-/// The shadow rays a hit cast ahead of its shading, one per light shaded from one point
-/// ([`Integrator::first_shadows`]): bit `l` for light `l`.
+/// What a hit's first rays, traced ahead of its shading, found: its shadow rays, one per
+/// light shaded from one point ([`Integrator::first_shadows`]: bit `l` for light `l`), and its
+/// mirror ray ([`Integrator::first_mirrors`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FirstShadows {
+pub struct TracedAhead {
     /// The lights whose shadow ray was traced ahead.
     traced: u8,
     /// Those whose shadow ray was blocked.
     blocked: u8,
+    /// Whether the hit's mirror ray was traced ahead and hits nothing.
+    mirror_missed: bool,
 }
 
-impl FirstShadows {
-    /// None traced.
-    pub const NONE: FirstShadows = FirstShadows { traced: 0, blocked: 0 };
+impl TracedAhead {
+    /// Nothing traced.
+    pub const NONE: TracedAhead = TracedAhead { traced: 0, blocked: 0, mirror_missed: false };
     /// Lights that can be traced ahead (one bit each).
     pub const LIGHTS: usize = 8;
 

@@ -328,6 +328,9 @@ struct Pass<'a, S: Sky, C: Footprint> {
     /// Whether a packet's hits trace their first shadow rays ahead, as packets
     /// ([`Integrator::shadows_ahead`]).
     shadows_ahead: bool,
+    /// Whether a packet's hits (where their shadow rays are traced ahead) trace their mirror
+    /// rays ahead too ([`Integrator::mirrors_ahead`]).
+    mirrors_ahead: bool,
     /// Where camera rays go in packets and misses do not depend on the ray (no environment
     /// map): the tiles' frustum tests, and the colour every camera ray that hits nothing
     /// returns, which fills a tile whose frustum meets no box of the BVH, its rays not traced
@@ -418,7 +421,8 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let culling = still.and_then(|_| TileCulling::of(scene, settings, camera));
         let cull = culling.zip(integrator.sky.uniform(settings));
         let shadows_ahead = packets && integrator.shadows_ahead();
-        Pass { integrator, camera, still, lens, packets, shadows_ahead, cull, pass }
+        let mirrors_ahead = shadows_ahead && integrator.mirrors_ahead();
+        Pass { integrator, camera, still, lens, packets, shadows_ahead, mirrors_ahead, cull, pass }
     }
 
     /// Which tiles of the band of `rows` rows from row `y0` hold no pixel whose camera rays
@@ -491,8 +495,9 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// by a still camera: each sample's camera rays are traced as one packet, then each
     /// pixel's sample goes on as in [`Pass::sample_pixel`]. Where the scene allows
     /// ([`Integrator::shadows_ahead`]), the hits are seen first and their first shadow rays
-    /// traced as packets too, then each pixel is shaded with the answers. The film gets the
-    /// same values, bit for bit, as pixel by pixel.
+    /// traced as packets too (and, [`Integrator::mirrors_ahead`], their mirror rays as an
+    /// any-hit packet), then each pixel is shaded with the answers. The film gets the same
+    /// values, bit for bit, as pixel by pixel.
     fn sample_run<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let n = sums.len();
@@ -526,7 +531,10 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 for (i, seen) in seen.iter_mut().enumerate().take(n) {
                     *seen = self.integrator.seen(&rays[i], hits[i]);
                 }
-                let ahead = self.integrator.first_shadows(&rays[..n], &seen);
+                let mut ahead = self.integrator.first_shadows(&rays[..n], &seen);
+                if self.mirrors_ahead {
+                    self.integrator.first_mirrors(&rays[..n], &seen, &mut ahead);
+                }
                 for (i, sampler) in samplers.into_iter().enumerate().take(n) {
                     let mut ctx = PathContext::new(sampler, &mut rec);
                     let c = self.integrator.li_seen(&rays[i], seen[i].as_ref(), ahead[i], &mut ctx);
@@ -753,17 +761,9 @@ mod tests {
         }
     }
 
-    /// Camera packets whose hits trace their first shadow rays ahead, as packets, give each
-    /// pixel what tracing it alone gives (the debugger's replay), bit for bit: a folded
-    /// surface of 800 triangles that shadows itself, under two point lights and a sphere
-    /// light shaded from its centre, by the Phong and Blinn-Phong models, with and without
-    /// ray cones; with the sphere light sampled, nothing is traced ahead.
-    #[test]
-    fn shadows_traced_ahead_equal_shadows_traced_alone() {
+    /// A folded surface of `2 n^2` triangles over `[-1, 1]^2` that shadows itself.
+    fn folded_surface(n: u32) -> crate::scene::MeshDesc {
         use crate::math::Vec3;
-        use crate::scene::{MeshDesc, SceneDesc};
-        use crate::settings::ShadingModel;
-        let n = 20u32;
         let height = |x: f32, z: f32| 0.4 * (4.0 * x).sin() * (3.0 * z).cos();
         let vertices = (0..=n)
             .flat_map(|i| (0..=n).map(move |j| (i, j)))
@@ -776,7 +776,20 @@ mod tests {
         let faces = (0..n).flat_map(|i| {
             (0..n).flat_map(move |j| [[v(i, j), v(i + 1, j), v(i + 1, j + 1)], [v(i, j), v(i + 1, j + 1), v(i, j + 1)]])
         });
-        let mesh = MeshDesc { vertices: Some(vertices), faces: Some(faces.collect()), ..MeshDesc::default() };
+        crate::scene::MeshDesc { vertices: Some(vertices), faces: Some(faces.collect()), ..Default::default() }
+    }
+
+    /// Camera packets whose hits trace their first shadow rays ahead, as packets, give each
+    /// pixel what tracing it alone gives (the debugger's replay), bit for bit: a folded
+    /// surface of 800 triangles that shadows itself, under two point lights and a sphere
+    /// light shaded from its centre, by the Phong and Blinn-Phong models, with and without
+    /// ray cones; with the sphere light sampled, nothing is traced ahead.
+    #[test]
+    fn shadows_traced_ahead_equal_shadows_traced_alone() {
+        use crate::math::Vec3;
+        use crate::scene::SceneDesc;
+        use crate::settings::ShadingModel;
+        let mesh = folded_surface(20);
         let lights = vec![
             crate::light::Light::Point { position: Vec3::new(1.5, 1.2, 0.5), color: Vec3::splat(0.6) },
             crate::light::Light::Point { position: Vec3::new(-1.0, 0.9, -1.5), color: Vec3::new(0.2, 0.3, 0.5) },
@@ -806,6 +819,69 @@ mod tests {
             }
             assert!(shadowed > 10, "the surface shadows itself ({shadowed} dark pixels)");
         }
+    }
+
+    /// Camera packets whose hits trace their mirror rays ahead, as any-hit packets, give each
+    /// pixel what tracing it alone gives (the debugger's replay), bit for bit: a folded
+    /// surface, half of it a sharp mirror, whose mirror rays leave the scene or meet the
+    /// surface or a ceiling over half of it, by the Phong model with and without ray cones, and with adaptive depth
+    /// control stopping the reflections traced ahead; glossy reflections and a depth of 0
+    /// trace nothing ahead.
+    #[test]
+    fn mirrors_traced_ahead_equal_mirrors_traced_alone() {
+        use crate::material::MaterialDesc;
+        use crate::math::Vec3;
+        use crate::record::RayTree;
+        use crate::scene::SceneDesc;
+        let mirror = MaterialDesc { ks: Some(Color::splat(0.5)), shininess: Some(20.0), ..MaterialDesc::default() };
+        let mut mesh = folded_surface(20);
+        mesh.materials = vec![mirror, MaterialDesc::default()];
+        mesh.face_materials = (0..800).map(|f| u32::from(f % 2 == 1)).collect();
+        // A ceiling over half of the surface, for the mirror rays to meet.
+        let ceiling = crate::scene::MeshDesc {
+            vertices: Some(vec![
+                Vec3::new(-3.0, 1.6, -3.0),
+                Vec3::new(0.0, 1.6, -3.0),
+                Vec3::new(0.0, 1.6, 3.0),
+                Vec3::new(-3.0, 1.6, 3.0),
+            ]),
+            faces: Some(vec![[0, 1, 2], [0, 2, 3]]),
+            ..Default::default()
+        };
+        let lights = vec![crate::light::Light::Point { position: Vec3::new(1.5, 1.2, 0.5), color: Vec3::splat(0.8) }];
+        let desc = SceneDesc { meshes: vec![mesh, ceiling], lights, ..SceneDesc::default() };
+        let scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
+        let base = RenderSettings { width: 37, height: 29, light_samples: 0, ..RenderSettings::default() };
+        let variants = [
+            (base.clone(), true),
+            (RenderSettings { texture_filter: TextureFilter::Trilinear, spp: 2, ..base.clone() }, true),
+            (RenderSettings { adc_bailout: 0.6, ..base.clone() }, true),
+            (RenderSettings { gloss_samples: 4, ..base.clone() }, false),
+            (RenderSettings { max_depth: 0, ..base.clone() }, false),
+        ];
+        let camera = scene.camera_motion();
+        for (s, ahead) in variants {
+            assert_eq!(Integrator::new(&scene, &s).mirrors_ahead(), ahead, "{s:?}");
+            let out = render(&scene, &s, &|_| {});
+            for y in 0..s.height {
+                for x in 0..s.width {
+                    let replayed = replay_pixel_sum(&scene, &s, &camera, x, y);
+                    assert_eq!(out.film.sum(x, y), replayed, "pixel ({x}, {y}) of {s:?}");
+                }
+            }
+        }
+        // The base render's mirror rays both leave the scene and meet something.
+        let (mut left, mut met) = (0, 0);
+        for y in 0..base.height {
+            for x in 0..base.width {
+                let mut tree = RayTree::default();
+                trace_pixel(&scene, &base, &camera, x, y, 0, &mut tree);
+                for ray in tree.rays.iter().filter(|r| r.kind == RayKind::Reflection && r.depth == 1) {
+                    *if ray.hit.is_some() { &mut met } else { &mut left } += 1;
+                }
+            }
+        }
+        assert!(left > 50 && met > 50, "mirror rays: {left} leave, {met} meet something");
     }
 
     /// A render into an earlier render's film equals a render into a new film, bit for bit
