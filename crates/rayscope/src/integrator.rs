@@ -121,11 +121,37 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// The colour arriving along camera ray `rays[lane]`, traced as the renderer traces a
     /// still camera's rays: in one packet with the camera rays of its neighbours (`rays`, a
     /// run of pixels of a row, as [`crate::render`] makes them), the recorder told what the
-    /// packet's traversal entered for this ray.
-    pub fn li_in_packet<R: RayRecorder>(&self, rays: &[Ray], lane: usize, ctx: &mut PathContext<R>) -> Color {
+    /// packet's traversal entered for this ray. `mirrors_ahead`: whether the render traces
+    /// the packet's mirror rays ahead ([`Integrator::first_mirrors`]), whose walks the
+    /// recorder is then told as the render made them.
+    pub fn li_in_packet<R: RayRecorder>(
+        &self,
+        rays: &[Ray],
+        lane: usize,
+        mirrors_ahead: bool,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
         let mut logs: [TraversalLog; PACKET] = Default::default();
         let hits = self.scene.intersect_packet_counted(rays, &mut logs);
-        self.trace(&rays[lane], hits[lane], Some(&logs[lane]), RayKind::Camera, 0, Color::ONE, self.camera_cone, ctx)
+        let mut ahead = [TracedAhead::NONE; PACKET];
+        if mirrors_ahead {
+            let seen = std::array::from_fn(|i| rays.get(i).and_then(|ray| self.seen(ray, hits[i])));
+            self.first_mirrors(rays, &seen, &mut ahead);
+        }
+        // `trace` with the answers traced ahead, written out: `trace` taking them as an
+        // argument (its other callers passing none) ran the same instructions, but moved the
+        // renderer's code so that the Cornell box and the dragon rendered 2% slower.
+        let ray = &rays[lane];
+        self.begin_ray(ray, Some(&logs[lane]), RayKind::Camera, 0, Color::ONE, ctx);
+        let color = match hits[lane] {
+            None => self.miss(ray, ctx),
+            Some(hit) => {
+                let seen = self.arrive(ray, hit, self.camera_cone, ctx.recorder);
+                self.shade_seen(ray, &seen, 0, Color::ONE, ahead[lane], ctx)
+            }
+        };
+        ctx.recorder.end_ray(color);
+        color
     }
 
     /// [`Integrator::li`] for a ray whose closest hit is already known (`hit`, which must be
@@ -164,11 +190,30 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         self.trace(ray, self.scene.intersect(ray), None, kind, depth, weight, cone, ctx)
     }
 
+    /// A mirror ray traced ahead ([`Integrator::first_mirrors`]) as a recorder is told it:
+    /// the render's any-hit walk of it (the packet's walk enters for each ray exactly what
+    /// the ray enters alone), then, where something blocks it, the closest-hit walk that
+    /// finds its hit. The ray's record keeps the last walk: the any-hit one of a ray that
+    /// leaves the scene, the closest-hit one of a ray that meets it.
+    fn cast_ahead<R: RayRecorder>(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        weight: Color,
+        cone: C,
+        ctx: &mut PathContext<R>,
+    ) -> Color {
+        let mut log = TraversalLog::default();
+        let blocked = self.scene.geometry.occluded_counted(ray, &mut log);
+        let hit = if blocked { self.scene.intersect_counted(ray, &mut log) } else { None };
+        self.trace(ray, hit, Some(&log), RayKind::Reflection, depth, weight, cone, ctx)
+    }
+
     /// The colour arriving along `ray`, whose closest hit is `hit`, for a ray of `weight`: per
     /// colour channel, the product of the factors by which its light reaches the pixel (1 for
     /// a camera ray; the sample's share of the pixel is not counted, as in POV-Ray), whose
     /// footprint where it starts is `cone`. `log`, when recording, holds what the traversal
-    /// that found `hit` entered.
+    /// that found `hit` entered; `ahead`: the rays already traced from the hit.
     // Inlined into its two callers, as the public entry points were before it took their
     // place: called, it cost the Cornell box 2.5% more instructions.
     #[allow(clippy::too_many_arguments)]
@@ -281,11 +326,13 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         self.settings.gloss_samples == 0 || !mat.glossiness.unwrap_or(mat.shininess).is_finite()
     }
 
-    /// The mirror rays of a packet's hits that reflect, traced ahead as one any-hit packet:
-    /// those found to hit nothing are marked in `ahead`, and their reflection is then shaded
-    /// as a miss without a closest-hit walk (the same answer: nothing blocks a ray exactly
-    /// when it has a closest hit). Most mirror rays off a lone object leave the scene, and an
-    /// any-hit walk of them together costs less than a closest-hit walk of each.
+    /// The mirror rays of a packet's hits that reflect (`rays`, with what they see, `seen`),
+    /// traced ahead as one any-hit packet, each answer kept in `ahead`: the reflection of a
+    /// ray that nothing blocks is then shaded as a miss without a closest-hit walk (the same
+    /// answer: nothing blocks a ray exactly when it has no closest hit), a blocked one is
+    /// traced for its closest hit. Most mirror rays off a lone object leave the scene, and an
+    /// any-hit walk of them together costs less than a closest-hit walk of each. Only for
+    /// [`Integrator::mirrors_ahead`].
     pub fn first_mirrors(&self, rays: &[Ray], seen: &[Option<Seen<C>>; PACKET], ahead: &mut [TracedAhead; PACKET]) {
         let mut mirror = [rays[0]; PACKET];
         let mut lane = [0; PACKET];
@@ -304,7 +351,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         }
         let blocked = self.scene.blocked_packet(&mirror[..k]);
         for (j, &i) in lane[..k].iter().enumerate() {
-            ahead[i].mirror_missed = blocked >> j & 1 == 0;
+            ahead[i].mirror = Some(blocked >> j & 1 == 0);
         }
     }
 
@@ -437,7 +484,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             // The reflection reaches the pixel through `ks`, and through the opacity by which
             // the blend below scales the surface's colour.
             let reflected = if transmits { weight * mat.ks * mat.transparency } else { weight * mat.ks };
-            color += mat.ks * self.reflection(ray, si, depth, reflected, cone.reflected(), ahead.mirror_missed, ctx);
+            color += mat.ks * self.reflection(ray, si, depth, reflected, cone.reflected(), ahead.mirror, ctx);
         }
         if transmits {
             // A branch that adaptive depth control stops adds nothing, as in POV-Ray: the
@@ -483,8 +530,8 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// `weight` is the whole reflection's; each of `n` glossy rays weighs `1/n` of it. A
     /// reflection that adaptive depth control stops returns black. `cone` is the mirror
     /// ray's footprint, which glossy rays share (their lobe's blur is not added to it).
-    /// `mirror_missed`: the mirror ray was traced ahead ([`Integrator::first_mirrors`]) and
-    /// hits nothing.
+    /// `mirror_ahead`: whether the mirror ray, traced ahead ([`Integrator::first_mirrors`]),
+    /// hits nothing (`None`: not traced ahead).
     #[allow(clippy::too_many_arguments)]
     fn reflection<R: RayRecorder>(
         &self,
@@ -493,7 +540,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         depth: u32,
         weight: Color,
         cone: C,
-        mirror_missed: bool,
+        mirror_ahead: Option<bool>,
         ctx: &mut PathContext<R>,
     ) -> Color {
         let mat = &self.scene.materials[si.material as usize];
@@ -503,9 +550,14 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
                 return Color::ZERO;
             }
             let r = Ray::spawn(si.point, si.geo_normal, mirror, ray.time);
-            // A recorder wants the ray's walk: it is traced again (the same answer).
-            if mirror_missed && !R::RECORDS {
-                return self.trace(&r, None, None, RayKind::Reflection, depth + 1, weight, cone, ctx);
+            if let Some(missed) = mirror_ahead {
+                // A recorder wants the ray's walks: it is traced again (the same answer).
+                if R::RECORDS {
+                    return self.cast_ahead(&r, depth + 1, weight, cone, ctx);
+                }
+                if missed {
+                    return self.trace(&r, None, None, RayKind::Reflection, depth + 1, weight, cone, ctx);
+                }
             }
             return self.cast(&r, RayKind::Reflection, depth + 1, weight, cone, ctx);
         }
@@ -802,13 +854,13 @@ pub struct TracedAhead {
     traced: u8,
     /// Those whose shadow ray was blocked.
     blocked: u8,
-    /// Whether the hit's mirror ray was traced ahead and hits nothing.
-    mirror_missed: bool,
+    /// Whether the hit's mirror ray hits nothing, if it was traced ahead.
+    mirror: Option<bool>,
 }
 
 impl TracedAhead {
     /// Nothing traced.
-    pub const NONE: TracedAhead = TracedAhead { traced: 0, blocked: 0, mirror_missed: false };
+    pub const NONE: TracedAhead = TracedAhead { traced: 0, blocked: 0, mirror: None };
     /// Lights that can be traced ahead (one bit each).
     pub const LIGHTS: usize = 8;
 

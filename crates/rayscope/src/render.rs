@@ -444,7 +444,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             // is told what the packet of this pixel's run entered for its ray.
             let (rays, lane) = self.camera_run(x, y, k);
             let mut ctx = PathContext::new(sampler, rec);
-            let c = self.integrator.li_in_packet(&rays, lane, &mut ctx);
+            let c = self.integrator.li_in_packet(&rays, lane, self.mirrors_ahead, &mut ctx);
             return (c, ctx.counts);
         }
         let mut ctx = PathContext::new(sampler, rec);
@@ -826,9 +826,10 @@ mod tests {
     /// surface, half of it a sharp mirror, whose mirror rays leave the scene or meet the
     /// surface or a ceiling over half of it, by the Phong model with and without ray cones, and with adaptive depth
     /// control stopping the reflections traced ahead; glossy reflections and a depth of 0
-    /// trace nothing ahead.
+    /// trace nothing ahead. The debugger records each mirror ray's walk as the render made it.
     #[test]
     fn mirrors_traced_ahead_equal_mirrors_traced_alone() {
+        use crate::bvh::QueryKind;
         use crate::material::MaterialDesc;
         use crate::math::Vec3;
         use crate::record::RayTree;
@@ -870,13 +871,18 @@ mod tests {
                 }
             }
         }
-        // The base render's mirror rays both leave the scene and meet something.
+        // The base render's mirror rays both leave the scene and meet something; the debugger
+        // records the render's walk of each: the any-hit walk of one that leaves the scene,
+        // the closest-hit walk after it of one that meets it.
         let (mut left, mut met) = (0, 0);
         for y in 0..base.height {
             for x in 0..base.width {
                 let mut tree = RayTree::default();
                 trace_pixel(&scene, &base, &camera, x, y, 0, &mut tree);
                 for ray in tree.rays.iter().filter(|r| r.kind == RayKind::Reflection && r.depth == 1) {
+                    let walk = ray.traversal.as_ref().map(|t| t.query);
+                    let want = if ray.hit.is_some() { QueryKind::ClosestHit } else { QueryKind::AnyHit };
+                    assert_eq!(walk, Some(want), "the mirror ray of pixel ({x}, {y})");
                     *if ray.hit.is_some() { &mut met } else { &mut left } += 1;
                 }
             }
