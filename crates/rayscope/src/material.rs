@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::gradient::{Gradient, GradientKey};
 use crate::math::{Color, Vec2};
-use crate::mipmap::{MipPyramid, TexelGrid};
+use crate::mipmap::{MipPyramid, TexelGrid, Unorm8};
 use crate::settings::{ShadingModel, TextureFilter};
 
 /// A Phong material in the course's form.
@@ -102,22 +102,34 @@ pub struct Texture {
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Texels, row 0 at the top of the image.
+    /// Texels, row 0 at the top of the image. Set by [`Texture::new`] and not changed after:
+    /// lookups may read the 8-bit copy it makes of them.
     pub texels: Vec<Color>,
     /// The mip pyramid, built by the first trilinear lookup ([`Texture::mips`]).
     mips: MipCache,
+    /// The texels as 8-bit values, where every one is (an image of 8-bit values, as most
+    /// are): what the nearest and bilinear lookups read, the same colours in a third of the
+    /// memory.
+    unorm8: Option<Vec<Unorm8>>,
 }
 
 impl Texture {
     /// A texture of `width x height` texels, row 0 at the top of the image.
     pub fn new(width: u32, height: u32, texels: Vec<Color>) -> Texture {
-        Texture { width, height, texels, mips: MipCache::default() }
+        let unorm8 = texels.iter().map(|c| Unorm8::exactly(*c)).collect();
+        Texture { width, height, texels, mips: MipCache::default(), unorm8 }
     }
 
     /// Its texels as a grid (level 0 of its pyramid).
     #[inline]
     pub fn grid(&self) -> TexelGrid<'_> {
-        TexelGrid { width: self.width, height: self.height, texels: &self.texels }
+        self.grid_of(&self.texels)
+    }
+
+    /// `texels`, this texture's in some form, as a grid of its size.
+    #[inline]
+    fn grid_of<'a, T>(&self, texels: &'a [T]) -> TexelGrid<'a, T> {
+        TexelGrid { width: self.width, height: self.height, texels }
     }
 
     /// The colour at `uv` (v = 0 at the bottom of the image, the OBJ convention). Trilinear
@@ -127,9 +139,11 @@ impl Texture {
         if !uv.is_finite() {
             return Color::ZERO;
         }
-        match filter {
-            TextureFilter::Nearest => self.grid().nearest(uv),
-            TextureFilter::Bilinear | TextureFilter::Trilinear => self.grid().bilinear(uv),
+        match (&self.unorm8, filter) {
+            (Some(texels), TextureFilter::Nearest) => self.grid_of(texels).nearest(uv),
+            (Some(texels), TextureFilter::Bilinear | TextureFilter::Trilinear) => self.grid_of(texels).bilinear(uv),
+            (None, TextureFilter::Nearest) => self.grid().nearest(uv),
+            (None, TextureFilter::Bilinear | TextureFilter::Trilinear) => self.grid().bilinear(uv),
         }
     }
 
@@ -186,5 +200,49 @@ mod tests {
         assert!((mid - Color::splat(0.5)).abs().max_element() < 1e-6);
         let centre = t.sample(Vec2::new(0.25, 0.75), TextureFilter::Bilinear);
         assert!((centre - Color::ONE).abs().max_element() < 1e-6);
+    }
+
+    /// Every byte `k` is read back as the loader's `k / 255`, bit for bit; values that are
+    /// not such a quotient (between two, beyond 1, negative zero, NaN) have no 8-bit form.
+    #[test]
+    fn unorm8_texels_are_the_loaders_values() {
+        use crate::mipmap::Texel;
+        for k in 0..=255u8 {
+            let loaded = Color::splat(k as f32) / 255.0;
+            let texel = Unorm8::exactly(loaded).expect("an 8-bit value");
+            assert_eq!(texel, Unorm8([k, k, k, 0]));
+            assert_eq!(texel.color().to_array().map(f32::to_bits), loaded.to_array().map(f32::to_bits));
+        }
+        for v in [0.3, 1.5, -0.0, 2.0 / 255.0 + 1e-7, f32::NAN, f32::INFINITY] {
+            assert_eq!(Unorm8::exactly(Color::new(0.0, v, 1.0)), None, "{v}");
+        }
+    }
+
+    /// A texture of 8-bit values read through its 8-bit form gives its colours' lookups bit for
+    /// bit (nearest and bilinear, uvs inside, outside and on texel edges); one texel that is
+    /// not 8-bit keeps the whole texture in colours.
+    #[test]
+    fn unorm8_lookups_equal_colour_lookups() {
+        let (w, h) = (7u32, 5u32);
+        let byte = |i: u32, c: u32| ((i * 37 + c * 91) % 256) as f32;
+        let texels: Vec<Color> = (0..w * h).map(|i| Color::new(byte(i, 0), byte(i, 1), byte(i, 2)) / 255.0).collect();
+        let t = Texture::new(w, h, texels.clone());
+        assert!(t.unorm8.is_some());
+        let mut odd = texels;
+        odd[11].y = 0.3;
+        assert!(Texture::new(w, h, odd).unorm8.is_none());
+        for i in -40..60 {
+            for j in -30..45 {
+                let uv = Vec2::new(i as f32 / 28.0, j as f32 / 20.0 + 0.013);
+                for filter in [TextureFilter::Nearest, TextureFilter::Bilinear] {
+                    let want = match filter {
+                        TextureFilter::Nearest => t.grid().nearest(uv),
+                        _ => t.grid().bilinear(uv),
+                    };
+                    let got = t.sample(uv, filter);
+                    assert_eq!(got.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "{uv} {filter:?}");
+                }
+            }
+        }
     }
 }
