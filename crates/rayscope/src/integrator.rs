@@ -544,23 +544,26 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         ctx: &mut PathContext<R>,
     ) -> Color {
         let mat = &self.scene.materials[si.material as usize];
-        let mirror = mirror_dir(ray, si);
         if self.mirrors_sharply(mat) {
             if !self.worth_casting(RayKind::Reflection, 1, weight, ctx) {
                 return Color::ZERO;
             }
-            let r = Ray::spawn(si.point, si.geo_normal, mirror, ray.time);
+            // Made where it is used: the reflection of a mirror ray traced ahead and found to
+            // miss needs no ray under a uniform sky (its colour), whose normalisation is then
+            // not paid twice.
+            let r = || Ray::spawn(si.point, si.geo_normal, mirror_dir(ray, si), ray.time);
             if let Some(missed) = mirror_ahead {
                 // A recorder wants the ray's walks: it is traced again (the same answer).
                 if R::RECORDS {
-                    return self.cast_ahead(&r, depth + 1, weight, cone, ctx);
+                    return self.cast_ahead(&r(), depth + 1, weight, cone, ctx);
                 }
                 if missed {
-                    return self.trace(&r, None, None, RayKind::Reflection, depth + 1, weight, cone, ctx);
+                    return self.trace(&r(), None, None, RayKind::Reflection, depth + 1, weight, cone, ctx);
                 }
             }
-            return self.cast(&r, RayKind::Reflection, depth + 1, weight, cone, ctx);
+            return self.cast(&r(), RayKind::Reflection, depth + 1, weight, cone, ctx);
         }
+        let mirror = mirror_dir(ray, si);
         let exponent = mat.glossiness.unwrap_or(mat.shininess);
         let n = if ctx.glossy_split { 1 } else { self.settings.gloss_samples };
         let weight = weight / n as f32;
