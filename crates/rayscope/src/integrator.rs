@@ -313,10 +313,15 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
     /// as a sharp mirror.
     pub fn mirrors_ahead(&self) -> bool {
         let s = self.settings;
-        s.shading
-            && s.reflections
-            && s.max_depth > 0
-            && self.scene.materials.iter().any(|m| m.ks.max_element() > 0.0 && self.mirrors_sharply(m))
+        s.shading && s.reflections && s.max_depth > 0 && self.scene.materials.iter().any(|m| self.casts_mirror_ray(m))
+    }
+
+    /// Whether a hit on `mat` reflects along one mirror ray, which
+    /// [`Integrator::first_mirrors`] traces ahead: `mat` reflects (`ks` above zero), as a
+    /// sharp mirror.
+    #[inline(always)]
+    fn casts_mirror_ray(&self, mat: &Material) -> bool {
+        mat.ks.max_element() > 0.0 && self.mirrors_sharply(mat)
     }
 
     /// Whether `mat` reflects along the mirror direction alone (one ray), rather than over
@@ -340,7 +345,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         for (i, (ray, seen)) in rays.iter().zip(seen).enumerate() {
             let Some(Seen { si, .. }) = seen else { continue };
             let mat = &self.scene.materials[si.material as usize];
-            if mat.ks.max_element() > 0.0 && self.mirrors_sharply(mat) {
+            if self.casts_mirror_ray(mat) {
                 mirror[k] = Ray::spawn(si.point, si.geo_normal, mirror_dir(ray, si), ray.time);
                 lane[k] = i;
                 k += 1;

@@ -824,9 +824,10 @@ mod tests {
     /// Camera packets whose hits trace their mirror rays ahead, as any-hit packets, give each
     /// pixel what tracing it alone gives (the debugger's replay), bit for bit: a folded
     /// surface, half of it a sharp mirror, whose mirror rays leave the scene or meet the
-    /// surface or a ceiling over half of it, by the Phong model with and without ray cones, and with adaptive depth
-    /// control stopping the reflections traced ahead; glossy reflections and a depth of 0
-    /// trace nothing ahead. The debugger records each mirror ray's walk as the render made it.
+    /// surface or a ceiling over half of it, by the Phong model with and without ray cones,
+    /// and with adaptive depth control stopping the reflections traced ahead; glossy
+    /// reflections and a depth of 0 trace nothing ahead. The debugger records each mirror
+    /// ray's walk as the render made it.
     #[test]
     fn mirrors_traced_ahead_equal_mirrors_traced_alone() {
         use crate::bvh::QueryKind;
