@@ -8,13 +8,15 @@
 //!
 //! Arguments: a built-in scene (default `teapot`), the kind of rays (`single`: 800x800
 //! camera rays one at a time, `packet`: the same in packets of eight neighbours of a row,
-//! `shadow`: any-hit rays from each camera hit to a point at (-1, 1, -1), `incoherent`: as many
+//! `tile`: the same in tiles of eight such packets, a tile's rows (chunks are then bands of
+//! eight rows), `shadow`: any-hit rays from each camera hit to a point at (-1, 1, -1), `incoherent`: as many
 //! rays from random points of the scene's box in random directions) and REPS (default 30).
 
 use std::time::{Duration, Instant};
 
 mod common;
 
+use rayscope::bvh::TILE_RUNS;
 use rayscope::ray::Ray;
 use rayscope::scene::{LoadContext, Scene, builtin};
 
@@ -34,12 +36,14 @@ fn main() {
     };
     let camera = common::camera_rays(&scene);
     let rays = match kind {
-        "single" | "packet" => camera,
+        "single" | "packet" | "tile" => camera,
         "shadow" => common::shadow_rays(&scene, &camera),
         "incoherent" => common::incoherent_rays(&scene, camera.len()),
-        other => panic!("unknown kind of rays {other:?}: single, packet, shadow or incoherent"),
+        other => panic!("unknown kind of rays {other:?}: single, packet, tile, shadow or incoherent"),
     };
-    let chunks: Vec<&[Ray]> = rays.chunks(2048).collect();
+    // A band of a tile's rows holds whole tiles.
+    let chunk = if kind == "tile" { 800 * TILE_RUNS } else { 2048 };
+    let chunks: Vec<&[Ray]> = rays.chunks(chunk).collect();
     let mut fastest = vec![Duration::MAX; chunks.len()];
     let mut hits = 0;
     for _ in 0..reps {
@@ -49,6 +53,13 @@ fn main() {
             hits += match kind {
                 "shadow" => chunk.iter().filter(|r| scene.occluded(r)).count(),
                 "packet" => chunk.chunks(8).map(|p| scene.intersect_packet(p).iter().flatten().count()).sum(),
+                "tile" => (0..800)
+                    .step_by(8)
+                    .map(|x0| {
+                        let runs: [&[Ray]; TILE_RUNS] = std::array::from_fn(|r| &chunk[800 * r + x0..][..8]);
+                        scene.intersect_tile(&runs).iter().flatten().flatten().count()
+                    })
+                    .sum(),
                 _ => chunk.iter().filter(|r| scene.intersect(r).is_some()).count(),
             };
             *best = (*best).min(start.elapsed());

@@ -1,7 +1,8 @@
 //! Arbitrary output variables: per-pixel facts about the first hit of each camera ray (depth,
 //! position, normal, albedo, primitive id, BVH nodes visited), rendered in parallel tiles
 //! beside the colour image. The camera rays go through the BVH as the renderer's do: in
-//! packets of a row's [`PACKET`] neighbouring pixels, and the heat map leaves out the tiles the
+//! packets of a row's [`PACKET`] neighbouring pixels, or tiles of [`TILE_ROWS`] rows' packets
+//! in scenes the renderer traces so ([`traces_camera_tiles`]), and the heat map leaves out the tiles the
 //! renderer culls (as the renderer does), so that it counts what the renderer's traversal
 //! does.
 
@@ -10,13 +11,13 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::bvh::{PACKET, TraversalStats};
+use crate::bvh::{PACKET, TILE_RUNS, TraversalStats};
 use crate::camera::{Camera, CameraMotion, RayGenerator};
 use crate::film::FloatImage;
 use crate::math::Vec2;
 use crate::ray::Ray;
 use crate::record::RayRecorder;
-use crate::render::{RenderProgress, TileCulling, trace_pixel};
+use crate::render::{RenderProgress, TILE_ROWS, TileCulling, trace_pixel, traces_camera_tiles};
 use crate::scene::{Hit, Scene, TextureLod};
 use crate::settings::{RenderSettings, ShadingOptions, TextureFilter};
 
@@ -72,22 +73,37 @@ pub fn render_aov(
     let still = CameraMotion::still(*camera);
     let culling = TileCulling::of(scene, settings, &still).filter(|_| aov == Aov::NodesVisited);
     let width = scene.geometry.wide.width() as f32;
-    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x0, x1, y| {
+    let tile_runs = traces_camera_tiles(scene);
+    let tiles = per_tile(settings.width, settings.height, &AtomicBool::new(false), progress, |x0, x1, y0, y1| {
+        let xs = x0..x1;
         if aov == Aov::MipLevel {
-            return (x0..x1).map(|x| [mip_level(scene, &trilinear, &still, x, y), 0.0, 0.0]).collect();
+            return (y0..y1)
+                .map(|y| xs.clone().map(|x| [mip_level(scene, &trilinear, &still, x, y), 0.0, 0.0]).collect())
+                .collect();
         }
-        // The runs of `per_tile` are the renderer's: one tile's row.
-        if let Some((tile, test)) = culling.as_ref().and_then(|c| c.culled_tile(x0, y)) {
+        // The blocks of `per_tile` are the renderer's tiles.
+        if let Some((tile, test)) = culling.as_ref().and_then(|c| c.culled_tile(x0, y0)) {
             let share = width * test.nodes as f32 / tile.pixels() as f32;
-            return vec![[share, 0.0, 0.0]; (x1 - x0) as usize];
+            return (y0..y1).map(|_| vec![[share, 0.0, 0.0]; xs.len()]).collect();
         }
-        let run: Vec<_> = (x0..x1).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
-        let mut stats = [TraversalStats::default(); PACKET];
-        let hits = scene.intersect_packet_counted(&run, &mut stats);
-        run.iter()
-            .zip(hits)
-            .zip(stats)
-            .map(|((ray, hit), stats)| pixel_value(scene, &shading, aov, ray, hit, &stats))
+        let runs: Vec<Vec<Ray>> =
+            (y0..y1).map(|y| xs.clone().map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect()).collect();
+        let value = |run: &[Ray], hits: &[Option<Hit>; PACKET], stats: &[TraversalStats; PACKET]| {
+            let pixels = run.iter().zip(hits).zip(stats);
+            pixels.map(|((ray, hit), stats)| pixel_value(scene, &shading, aov, ray, *hit, stats)).collect()
+        };
+        if tile_runs {
+            let tile: Vec<&[Ray]> = runs.iter().map(Vec::as_slice).collect();
+            let mut stats = [[TraversalStats::default(); PACKET]; TILE_RUNS];
+            let hits = scene.intersect_tile_counted(&tile, &mut stats);
+            return runs.iter().zip(&hits).zip(&stats).map(|((run, hits), stats)| value(run, hits, stats)).collect();
+        }
+        runs.iter()
+            .map(|run| {
+                let mut stats = [TraversalStats::default(); PACKET];
+                let hits = scene.intersect_packet_counted(run, &mut stats);
+                value(run, &hits, &stats)
+            })
             .collect()
     });
     let channels = aov.channels() as usize;
@@ -154,8 +170,11 @@ fn pixel_value(
 
 /// Side of the square tiles the image is cut into: small enough to balance load across
 /// threads, large enough that the rays of a tile stay coherent in cache. A multiple of
-/// [`PACKET`], so that a tile's runs of pixels are the renderer's packets.
+/// [`PACKET`] and of [`TILE_ROWS`], so that a tile's blocks of pixels are the renderer's
+/// packets and tiles.
 const TILE: u32 = 16;
+
+const _: () = assert!(TILE.is_multiple_of(PACKET as u32) && TILE.is_multiple_of(TILE_ROWS as u32));
 
 // A tile's runs are the renderer's packets and culled tiles' rows (`render_aov`).
 const _: () = assert!(TILE.is_multiple_of(PACKET as u32) && TILE.is_multiple_of(crate::render::TILE_ROWS as u32));
@@ -184,17 +203,18 @@ fn tiles(width: u32, height: u32) -> Vec<Tile> {
     v
 }
 
-/// Run `f` for every run of pixels in parallel tiles (`f(x0, x1, y)`: pixels `x0..x1` of row
-/// `y`, the renderer's packet of up to [`PACKET`] pixels from a multiple of [`PACKET`]), skipping
-/// tiles not yet started once `cancel` is set. Returns, per tile, its pixels' results in order
-/// (`None` for skipped tiles). Each result depends only on its run, so the outcome is the same
-/// for any number of threads.
+/// Run `f` for every block of pixels in parallel tiles (`f(x0, x1, y0, y1)`: pixels `x0..x1`
+/// of rows `y0..y1`, the renderer's tile of up to [`TILE_ROWS`] runs of up to [`PACKET`]
+/// pixels, from multiples of those, its values row by row), skipping tiles not yet started
+/// once `cancel` is set. Returns, per tile, its pixels' results in order (`None` for skipped
+/// tiles). Each result depends only on its block, so the outcome is the same for any number
+/// of threads.
 fn per_tile<T: Send>(
     width: u32,
     height: u32,
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
-    f: impl Fn(u32, u32, u32) -> Vec<T> + Sync,
+    f: impl Fn(u32, u32, u32, u32) -> Vec<Vec<T>> + Sync,
 ) -> Vec<(Tile, Option<Vec<T>>)> {
     let tiles = tiles(width, height);
     let done = AtomicUsize::new(0);
@@ -206,10 +226,16 @@ fn per_tile<T: Send>(
                 return (t, None);
             }
             let mut v: Vec<T> = Vec::with_capacity(((t.x1 - t.x0) * (t.y1 - t.y0)) as usize);
-            for y in t.y0..t.y1 {
+            for y0 in (t.y0..t.y1).step_by(TILE_ROWS) {
+                let y1 = (y0 + TILE_ROWS as u32).min(t.y1);
+                let mut rows: Vec<Vec<T>> = (y0..y1).map(|_| Vec::new()).collect();
                 for x0 in (t.x0..t.x1).step_by(PACKET) {
-                    v.extend(f(x0, (x0 + PACKET as u32).min(t.x1), y));
+                    let block = f(x0, (x0 + PACKET as u32).min(t.x1), y0, y1);
+                    for (row, values) in rows.iter_mut().zip(block) {
+                        row.extend(values);
+                    }
                 }
+                v.extend(rows.into_iter().flatten());
             }
             let d = done.fetch_add(v.len(), Ordering::Relaxed) + v.len();
             progress(RenderProgress { done: d, total });

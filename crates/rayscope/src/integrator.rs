@@ -7,7 +7,7 @@
 //! the factors by which its light reaches the pixel, and a secondary ray whose weight falls
 //! below [`RenderSettings::adc_bailout`] is not cast.
 
-use crate::bvh::{PACKET, TraversalLog};
+use crate::bvh::{PACKET, TILE_RUNS, TraversalLog};
 use crate::camera::Camera;
 use crate::cone::{Footprint, NoCone, RayCone};
 use crate::light::{Light, LightSample};
@@ -65,6 +65,15 @@ impl<'r, R: RayRecorder> PathContext<'r, R> {
     }
 }
 
+/// Camera rays that the renderer traces together ([`Integrator::li_in_packet`]).
+#[derive(Clone, Copy, Debug)]
+pub enum CameraBatch<'r> {
+    /// A packet: a run of up to [`PACKET`] pixels of a row.
+    Packet(&'r [Ray]),
+    /// A tile: the runs of up to [`TILE_RUNS`] rows, the same columns.
+    Tile(&'r [&'r [Ray]]),
+}
+
 /// Traces rays through one scene with one set of settings; rays that miss return what `S`
 /// says ([`crate::sky`]: the background colour, or an environment map).
 pub struct Integrator<'a, S: Sky = Background, C: Footprint = NoCone> {
@@ -118,21 +127,31 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
         self.cast(ray, kind, depth, Color::ONE, self.camera_cone, ctx)
     }
 
-    /// The colour arriving along camera ray `rays[lane]`, traced as the renderer traces a
-    /// still camera's rays: in one packet with the camera rays of its neighbours (`rays`, a
-    /// run of pixels of a row, as [`crate::render`] makes them), the recorder told what the
-    /// packet's traversal entered for this ray. `mirrors_ahead`: whether the render traces
-    /// the packet's mirror rays ahead ([`Integrator::first_mirrors`]), whose walks the
-    /// recorder is then told as the render made them.
+    /// The colour arriving along camera ray `lane` of run `run` of `batch`, traced as the
+    /// renderer traces a still camera's rays: with the camera rays of its neighbours (a run
+    /// of pixels of a row, or a tile's runs, as [`crate::render`] makes them), the recorder
+    /// told what the packet's or the tile's traversal entered for this ray. `mirrors_ahead`:
+    /// whether the render traces the run's mirror rays ahead ([`Integrator::first_mirrors`]),
+    /// whose walks the recorder is then told as the render made them.
     pub fn li_in_packet<R: RayRecorder>(
         &self,
-        rays: &[Ray],
-        lane: usize,
+        batch: CameraBatch<'_>,
+        (run, lane): (usize, usize),
         mirrors_ahead: bool,
         ctx: &mut PathContext<R>,
     ) -> Color {
-        let mut logs: [TraversalLog; PACKET] = Default::default();
-        let hits = self.scene.intersect_packet_counted(rays, &mut logs);
+        let (rays, hits, logs) = match batch {
+            CameraBatch::Packet(rays) => {
+                let mut logs: [TraversalLog; PACKET] = Default::default();
+                let hits = self.scene.intersect_packet_counted(rays, &mut logs);
+                (rays, hits, logs)
+            }
+            CameraBatch::Tile(runs) => {
+                let mut logs: [[TraversalLog; PACKET]; TILE_RUNS] = Default::default();
+                let hits = self.scene.intersect_tile_counted(runs, &mut logs);
+                (runs[run], hits[run], std::mem::take(&mut logs[run]))
+            }
+        };
         let mut ahead = [TracedAhead::NONE; PACKET];
         if mirrors_ahead {
             let seen = std::array::from_fn(|i| rays.get(i).and_then(|ray| self.seen(ray, hits[i])));

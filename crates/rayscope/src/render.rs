@@ -12,13 +12,13 @@ use crate::camera::{CameraMotion, RayGenerator};
 use crate::cone::Footprint;
 use crate::film::exact_sum::ExactSum;
 use crate::film::{Film, FilmSlices, PassSlices, PixelAccumulator, Residual, finite_or_black};
-use crate::integrator::{Integrator, PathContext};
+use crate::integrator::{CameraBatch, Integrator, PathContext};
 use crate::lens::ThinLens;
 use crate::math::{Color, Vec2};
 use crate::ray::Ray;
 use crate::record::{NoRecorder, RayKind, RayRecorder};
 use crate::sampler::PixelSampler;
-use crate::scene::Scene;
+use crate::scene::{Hit, Scene};
 use crate::settings::{RenderSettings, TextureFilter};
 use crate::sky::Sky;
 
@@ -164,20 +164,21 @@ pub fn render_pass(
 ) -> (RayCounts, bool) {
     // The sky is chosen here, once: a scene without an environment map runs the miss path
     // it always had (see `crate::sky`).
-    pass_culling(scene, settings, camera, film, pass, Culling::Tiles, cancel, progress)
+    pass_culling(scene, settings, camera, film, pass, CameraTrace::Fast, cancel, progress)
 }
 
-/// Whether a pass may skip the camera rays of tiles that cannot hit anything.
+/// How a pass traces its camera rays: with the shortcuts rendering takes, or plainly.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Culling {
-    /// Where it can ([`Pass::cull`]): rendering's choice.
-    Tiles,
-    /// Never: every camera ray is traced (the oracle of the culling's tests).
+enum CameraTrace {
+    /// Rendering's choice: tiles that cannot hit anything skipped ([`Pass::cull`]), and
+    /// tiles of packets traced as one where the scene is large enough ([`Pass::tiles`]).
+    Fast,
+    /// Every camera ray traced, packet by packet (the oracle of the shortcuts' tests).
     #[cfg_attr(not(test), allow(dead_code))]
-    Off,
+    Plain,
 }
 
-/// [`render_pass`], culling tiles or not.
+/// [`render_pass`], with rendering's shortcuts or without.
 #[allow(clippy::too_many_arguments)]
 fn pass_culling(
     scene: &Scene,
@@ -185,7 +186,7 @@ fn pass_culling(
     camera: &CameraMotion,
     film: &mut Film,
     pass: SamplePass,
-    culling: Culling,
+    culling: CameraTrace,
     cancel: &AtomicBool,
     progress: &(dyn Fn(RenderProgress) + Sync),
 ) -> (RayCounts, bool) {
@@ -201,7 +202,7 @@ fn pass_culling(
 struct PassRun<'a> {
     camera: &'a CameraMotion,
     pass: SamplePass,
-    culling: Culling,
+    culling: CameraTrace,
     cancel: &'a AtomicBool,
     progress: &'a (dyn Fn(RenderProgress) + Sync),
 }
@@ -221,8 +222,9 @@ fn pass_with<S: Sky, C: Footprint>(integrator: &Integrator<S, C>, film: &mut Fil
     let settings = integrator.settings;
     let still = camera.is_still().then(|| RayGenerator::new(&camera.start, settings.width, settings.height));
     let mut setup = Pass::new(integrator, camera, still.as_ref(), pass);
-    if culling == Culling::Off {
+    if culling == CameraTrace::Plain {
         setup.cull = None;
+        setup.tiles = false;
     }
     // A fresh film's first pass of one sample adds to `f32` sums, any other to `f64` ones
     // (`Film::pass_slices`): the same loop, generic over the sums.
@@ -279,6 +281,22 @@ const BAND_ROWS: usize = 8;
 /// rays miss), large enough that the frustum test costs little per pixel.
 pub const TILE_ROWS: usize = 8;
 
+/// Fewest primitives for a scene's camera rays to go through the BVH as tiles of packets
+/// ([`Scene::intersect_tile`]) rather than packet by packet: the Cornell box's 32 triangles
+/// (a root and its leaves) traced 6% slower as tiles, the teapot's 14% and the dragon's 18%
+/// faster (BENCHMARKS.md, session 28).
+pub const TILE_PRIMS: usize = 256;
+
+/// Whether a still pinhole camera's rays in `scene` go through the BVH as tiles of packets
+/// ([`Scene::intersect_tile`], a tile's [`TILE_ROWS`] rows together) rather than packet by
+/// packet: in scenes of [`TILE_PRIMS`] primitives or more.
+pub fn traces_camera_tiles(scene: &Scene) -> bool {
+    scene.prim_count() >= TILE_PRIMS
+}
+
+// A tile's rows are traced together: at most one tile's runs.
+const _: () = assert!(TILE_ROWS <= crate::bvh::TILE_RUNS);
+
 // A band is whole tiles: `Pass::bands` indexes a band's tiles from its first row.
 const _: () = assert!(BAND_ROWS.is_multiple_of(TILE_ROWS));
 
@@ -325,6 +343,10 @@ struct Pass<'a, S: Sky, C: Footprint> {
     /// Whether camera rays go through the BVH in packets: a still pinhole's rays share their
     /// origin (a lens's do not, and the packet would fall back to one by one).
     packets: bool,
+    /// Whether a still pinhole's camera rays go through the BVH as tiles of packets, a tile's
+    /// rows together ([`Scene::intersect_tile`]): with [`Pass::packets`], where
+    /// [`traces_camera_tiles`].
+    tiles: bool,
     /// Whether a packet's hits trace their first shadow rays ahead, as packets
     /// ([`Integrator::shadows_ahead`]).
     shadows_ahead: bool,
@@ -349,6 +371,9 @@ struct PixelRun<'a, A> {
     counts: &'a mut [u32],
     residuals: &'a mut Vec<Residual>,
 }
+
+/// A run's pixels in the film: their sums and sample counts.
+type RunSlices<'a, A> = (&'a mut [A], &'a mut [u32]);
 
 impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// Add the pass's samples to every pixel of `film`: bands of whole rows, rendered in
@@ -378,6 +403,12 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 let y0 = b * BAND_ROWS;
                 let culled = self.culled_tiles(y0, sums.len() / w);
                 let tiles = w.div_ceil(PACKET);
+                if self.tiles {
+                    self.band_by_tiles(y0 as u32, sums, counts, &culled, &mut tally, &mut residuals);
+                    let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
+                    progress(RenderProgress { done: d, total });
+                    return Band { tally, residuals, complete: true };
+                }
                 let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
                 for (row, (sums, counts)) in rows.enumerate() {
                     let y = (y0 + row) as u32;
@@ -406,6 +437,55 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             .collect()
     }
 
+    /// Add the pass's samples to the band of rows from `y0` (its film `sums` and `counts`,
+    /// `culled` its tiles' culling as [`Pass::culled_tiles`] gives it) tile by tile, each
+    /// tile's camera rays traced as one ([`Pass::sample_tile`]) when all its pixels are at
+    /// the same sample, else run by run as [`Pass::bands`] traces them.
+    fn band_by_tiles<A: PixelAccumulator>(
+        &self,
+        y0: u32,
+        sums: &mut [A],
+        counts: &mut [u32],
+        culled: &[bool],
+        tally: &mut Tally,
+        residuals: &mut Vec<Residual>,
+    ) {
+        let w = self.integrator.settings.width as usize;
+        let tiles = w.div_ceil(PACKET);
+        let tile_rows = sums.chunks_mut(TILE_ROWS * w).zip(counts.chunks_mut(TILE_ROWS * w));
+        for (ty, (sums, counts)) in tile_rows.enumerate() {
+            let y0 = y0 + (ty * TILE_ROWS) as u32;
+            let mut rows: Vec<_> = sums
+                .chunks_mut(w)
+                .zip(counts.chunks_mut(w))
+                .map(|(s, c)| s.chunks_mut(PACKET).zip(c.chunks_mut(PACKET)))
+                .collect();
+            for (t, x0) in (0..w).step_by(PACKET).enumerate() {
+                let x0 = x0 as u32;
+                let mut runs: [Option<RunSlices<A>>; TILE_ROWS] =
+                    std::array::from_fn(|r| rows.get_mut(r).and_then(Iterator::next));
+                if let Some((_, miss)) = self.cull.filter(|_| culled[ty * tiles + t]) {
+                    for (r, (sums, counts)) in runs.iter_mut().flatten().enumerate() {
+                        let pixels = PixelRun { x0, y: y0 + r as u32, sums, counts, residuals: &mut *residuals };
+                        tally.add(self.fill_missed(pixels, miss));
+                    }
+                    continue;
+                }
+                // Pixels of the tile all at the same sample (see `Pass::bands`).
+                let first = runs[0].as_ref().map(|(_, c)| c[0]);
+                if runs.iter().flatten().all(|(_, c)| c.iter().all(|c| Some(*c) == first)) {
+                    tally.add(self.sample_tile(x0, y0, &mut runs, residuals));
+                    continue;
+                }
+                for (r, (sums, counts)) in runs.iter_mut().flatten().enumerate() {
+                    let same = counts.iter().all(|c| *c == counts[0]);
+                    let pixels = PixelRun { x0, y: y0 + r as u32, sums, counts, residuals: &mut *residuals };
+                    tally.add(if same { self.sample_run(pixels) } else { self.sample_alone(pixels) });
+                }
+            }
+        }
+    }
+
     fn new(
         integrator: &'a Integrator<'a, S, C>,
         camera: &'a CameraMotion,
@@ -415,6 +495,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         // The lens of the pose at shutter open: a moving camera keeps its focus distance.
         let lens = ThinLens::new(integrator.settings, &camera.start);
         let packets = camera.is_still() && lens.is_none();
+        let tiles = packets && traces_camera_tiles(integrator.scene);
         // The one rule of `TileCulling::of` (which the debugger and the heat map ask too),
         // for the passes that have a still camera's generator (not the debugger's own).
         let (scene, settings) = (integrator.scene, integrator.settings);
@@ -422,7 +503,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let cull = culling.zip(integrator.sky.uniform(settings));
         let shadows_ahead = packets && integrator.shadows_ahead();
         let mirrors_ahead = shadows_ahead && integrator.mirrors_ahead();
-        Pass { integrator, camera, still, lens, packets, shadows_ahead, mirrors_ahead, cull, pass }
+        Pass { integrator, camera, still, lens, packets, tiles, shadows_ahead, mirrors_ahead, cull, pass }
     }
 
     /// Which tiles of the band of `rows` rows from row `y0` hold no pixel whose camera rays
@@ -440,11 +521,18 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let sampler = self.sampler(x, y, k);
         let ray = self.camera_ray(x, y, k, &sampler);
         if R::RECORDS && self.packets {
-            // A still camera's rays go through the BVH in packets (`sample_run`): the recorder
-            // is told what the packet of this pixel's run entered for its ray.
-            let (rays, lane) = self.camera_run(x, y, k);
+            // A still camera's rays go through the BVH in packets (`sample_run`) or tiles
+            // (`sample_tile`): the recorder is told what the packet or tile of this pixel
+            // entered for its ray.
+            let (runs, run, lane) = self.camera_tile(x, y, k);
             let mut ctx = PathContext::new(sampler, rec);
-            let c = self.integrator.li_in_packet(&rays, lane, self.mirrors_ahead, &mut ctx);
+            let c = if self.tiles {
+                let tile: Vec<&[Ray]> = runs.iter().map(Vec::as_slice).collect();
+                self.integrator.li_in_packet(CameraBatch::Tile(&tile), (run, lane), self.mirrors_ahead, &mut ctx)
+            } else {
+                let batch = CameraBatch::Packet(&runs[run]);
+                self.integrator.li_in_packet(batch, (run, lane), self.mirrors_ahead, &mut ctx)
+            };
             return (c, ctx.counts);
         }
         let mut ctx = PathContext::new(sampler, rec);
@@ -452,14 +540,16 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         (c, ctx.counts)
     }
 
-    /// The camera rays of sample `k` of the run of pixels [`render_pass`] traces pixel
-    /// `(x, y)` in (the [`PACKET`] pixels of row `y` from a multiple of [`PACKET`], fewer at
-    /// the row's end), and the pixel's place in it.
-    fn camera_run(&self, x: u32, y: u32, k: u32) -> (Vec<Ray>, usize) {
-        let x0 = x - x % PACKET as u32;
-        let x1 = (x0 + PACKET as u32).min(self.integrator.settings.width);
-        let rays = (x0..x1).map(|xi| self.pinhole_ray(xi, y, &self.sampler(xi, y, k))).collect();
-        (rays, (x - x0) as usize)
+    /// The camera rays of sample `k` of the tile of pixels [`render_pass`] traces pixel
+    /// `(x, y)` in, run by run (the [`PACKET`] pixels of a row from a multiple of [`PACKET`],
+    /// fewer at the row's end, in the [`TILE_ROWS`] rows from a multiple of [`TILE_ROWS`],
+    /// fewer at the image's end), and the pixel's run and place in it.
+    fn camera_tile(&self, x: u32, y: u32, k: u32) -> (Vec<Vec<Ray>>, usize, usize) {
+        let (w, h) = (self.integrator.settings.width, self.integrator.settings.height);
+        let (x0, y0) = (x - x % PACKET as u32, y - y % TILE_ROWS as u32);
+        let (x1, y1) = ((x0 + PACKET as u32).min(w), (y0 + TILE_ROWS as u32).min(h));
+        let run = |yi: u32| (x0..x1).map(|xi| self.pinhole_ray(xi, yi, &self.sampler(xi, yi, k))).collect();
+        ((y0..y1).map(run).collect(), (y - y0) as usize, (x - x0) as usize)
     }
 
     /// The sampler of sample `k` of pixel `(x, y)`.
@@ -501,55 +591,115 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     fn sample_run<A: PixelAccumulator>(&self, run: PixelRun<A>) -> Tally {
         let PixelRun { x0, y, sums, counts, residuals } = run;
         let n = sums.len();
-        let row = y * self.integrator.settings.width;
         let mut total = Tally::default();
         let first = counts[0];
         let last = sample_range(first, self.pass);
-        let x = |i: usize| x0 + i.min(n - 1) as u32;
         for k in first..last {
-            // Two arrays built in place: an array of (sampler, ray) pairs split into them cost
-            // a `memcpy` per packet.
-            let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
-            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
+            // Two arrays built in place: an array of (sampler, ray) pairs split into them cost a
+            // `memcpy` per packet.
+            let samplers: [PixelSampler; PACKET] =
+                std::array::from_fn(|i| self.sampler(x0 + i.min(n - 1) as u32, y, k));
+            let rays: [Ray; PACKET] =
+                std::array::from_fn(|i| self.pinhole_ray(x0 + i.min(n - 1) as u32, y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
-            let mut add = |i: usize, c: Color, rays: RayCounts| {
-                let c = finite_or_black(c, &mut total.dropped);
-                if k == 0 {
-                    sums[i].add_first(c);
-                } else {
-                    sums[i].add(c, row + x0 + i as u32, residuals);
-                }
-                total.rays.add(rays);
-            };
-            let mut rec = NoRecorder;
-            // Two loops over the lanes, one per way of shading: one loop choosing per lane
-            // (`match` on the shadows traced ahead or not) rendered the Cornell box 2% and the
-            // dragon 0.5% slower (BENCHMARKS.md, session 24).
-            if self.shadows_ahead {
-                // Filled in place (`array::from_fn` built the kilobyte apart and copied it).
-                let mut seen = [None; PACKET];
-                for (i, seen) in seen.iter_mut().enumerate().take(n) {
-                    *seen = self.integrator.seen(&rays[i], hits[i]);
-                }
-                let mut ahead = self.integrator.first_shadows(&rays[..n], &seen);
-                if self.mirrors_ahead {
-                    self.integrator.first_mirrors(&rays[..n], &seen, &mut ahead);
-                }
-                for (i, sampler) in samplers.into_iter().enumerate().take(n) {
-                    let mut ctx = PathContext::new(sampler, &mut rec);
-                    let c = self.integrator.li_seen(&rays[i], seen[i].as_ref(), ahead[i], &mut ctx);
-                    add(i, c, ctx.counts);
-                }
-                continue;
-            }
-            for (i, sampler) in samplers.into_iter().enumerate().take(n) {
-                let mut ctx = PathContext::new(sampler, &mut rec);
-                let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
-                add(i, c, ctx.counts);
-            }
+            let run = PixelRun { x0, y, sums: &mut *sums, counts: &mut *counts, residuals: &mut *residuals };
+            self.shade_run(run, k, samplers, &rays[..n], &hits, &mut total);
         }
         counts.fill(last);
         total
+    }
+
+    /// Add the pass's samples to the runs of a tile (`runs`, the runs of up to [`TILE_ROWS`]
+    /// rows from row `y0`, the same columns from `x0`, every pixel at the same sample count),
+    /// seen by a still camera: each sample's camera rays are traced as one tile
+    /// ([`Scene::intersect_tile`]), then each run is shaded as [`Pass::sample_run`] shades
+    /// it. The film gets the same values, bit for bit.
+    fn sample_tile<A: PixelAccumulator>(
+        &self,
+        x0: u32,
+        y0: u32,
+        runs: &mut [Option<RunSlices<A>>; TILE_ROWS],
+        residuals: &mut Vec<Residual>,
+    ) -> Tally {
+        let m = runs.iter().flatten().count();
+        let n = runs[0].as_ref().map_or(0, |(sums, _)| sums.len());
+        let mut total = Tally::default();
+        let first = runs[0].as_ref().map_or(0, |(_, counts)| counts[0]);
+        let last = sample_range(first, self.pass);
+        let x = |i: usize| x0 + i.min(n - 1) as u32;
+        let y = |r: usize| y0 + r.min(m - 1) as u32;
+        for k in first..last {
+            let samplers: [[PixelSampler; PACKET]; TILE_ROWS] =
+                std::array::from_fn(|r| std::array::from_fn(|i| self.sampler(x(i), y(r), k)));
+            let rays: [[Ray; PACKET]; TILE_ROWS] =
+                std::array::from_fn(|r| std::array::from_fn(|i| self.pinhole_ray(x(i), y(r), &samplers[r][i])));
+            let tile: [&[Ray]; TILE_ROWS] = std::array::from_fn(|r| &rays[r][..n]);
+            let hits = self.integrator.scene.intersect_tile(&tile[..m]);
+            for ((r, (sums, counts)), samplers) in runs.iter_mut().flatten().enumerate().zip(samplers) {
+                let run = PixelRun { x0, y: y(r), sums, counts, residuals: &mut *residuals };
+                self.shade_run(run, k, samplers, tile[r], &hits[r], &mut total);
+            }
+        }
+        for (_, counts) in runs.iter_mut().flatten() {
+            counts.fill(last);
+        }
+        total
+    }
+
+    /// Add sample `k` of each pixel of `run` to its sum, the camera rays `rays` (made with
+    /// `samplers`) having found `hits`: each pixel's sample goes on as in
+    /// [`Pass::sample_pixel`]. Where the scene allows ([`Integrator::shadows_ahead`]), the
+    /// hits are seen first and their first shadow rays traced as packets too (and,
+    /// [`Integrator::mirrors_ahead`], their mirror rays as an any-hit packet), then each
+    /// pixel is shaded with the answers.
+    #[inline(always)]
+    fn shade_run<A: PixelAccumulator>(
+        &self,
+        run: PixelRun<A>,
+        k: u32,
+        samplers: [PixelSampler; PACKET],
+        rays: &[Ray],
+        hits: &[Option<Hit>; PACKET],
+        total: &mut Tally,
+    ) {
+        let PixelRun { x0, y, sums, residuals, .. } = run;
+        let n = rays.len();
+        let row = y * self.integrator.settings.width;
+        let mut add = |i: usize, c: Color, rays: RayCounts| {
+            let c = finite_or_black(c, &mut total.dropped);
+            if k == 0 {
+                sums[i].add_first(c);
+            } else {
+                sums[i].add(c, row + x0 + i as u32, residuals);
+            }
+            total.rays.add(rays);
+        };
+        let mut rec = NoRecorder;
+        // Two loops over the lanes, one per way of shading: one loop choosing per lane
+        // (`match` on the shadows traced ahead or not) rendered the Cornell box 2% and the
+        // dragon 0.5% slower (BENCHMARKS.md, session 24).
+        if self.shadows_ahead {
+            // Filled in place (`array::from_fn` built the kilobyte apart and copied it).
+            let mut seen = [None; PACKET];
+            for (i, seen) in seen.iter_mut().enumerate().take(n) {
+                *seen = self.integrator.seen(&rays[i], hits[i]);
+            }
+            let mut ahead = self.integrator.first_shadows(rays, &seen);
+            if self.mirrors_ahead {
+                self.integrator.first_mirrors(rays, &seen, &mut ahead);
+            }
+            for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+                let mut ctx = PathContext::new(sampler, &mut rec);
+                let c = self.integrator.li_seen(&rays[i], seen[i].as_ref(), ahead[i], &mut ctx);
+                add(i, c, ctx.counts);
+            }
+            return;
+        }
+        for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+            let mut ctx = PathContext::new(sampler, &mut rec);
+            let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
+            add(i, c, ctx.counts);
+        }
     }
 
     /// Add the pass's samples to `run`, whose camera rays cannot hit anything (its tile was
@@ -718,7 +868,7 @@ mod tests {
 
     /// Passes of `samples` each (the first on `f32` sums, the later ones on `f64`), culling
     /// tiles or not: the films and the ray counts.
-    fn passes(scene: &Scene, settings: &RenderSettings, samples: &[u32], culling: Culling) -> (Film, RayCounts) {
+    fn passes(scene: &Scene, settings: &RenderSettings, samples: &[u32], culling: CameraTrace) -> (Film, RayCounts) {
         let mut film = Film::new(settings.width, settings.height);
         let mut rays = RayCounts::default();
         let camera = scene.camera_motion();
@@ -753,8 +903,8 @@ mod tests {
         for (name, scene) in scenes.into_iter().chain([("cornell-box-motion", moving), ("spheres with a sky", sky)]) {
             for filter in [PixelFilter::Box, PixelFilter::Tent, PixelFilter::Gaussian] {
                 let settings = RenderSettings { width: 77, height: 61, filter, ..RenderSettings::default() };
-                let (traced, rays) = passes(&scene, &settings, &[1, 2], Culling::Off);
-                let (culled, culled_rays) = passes(&scene, &settings, &[1, 2], Culling::Tiles);
+                let (traced, rays) = passes(&scene, &settings, &[1, 2], CameraTrace::Plain);
+                let (culled, culled_rays) = passes(&scene, &settings, &[1, 2], CameraTrace::Fast);
                 assert_eq!(film_bits(&culled), film_bits(&traced), "{name} {filter:?}");
                 assert_eq!(culled_rays, rays, "{name} {filter:?}");
             }
@@ -777,6 +927,42 @@ mod tests {
             (0..n).flat_map(move |j| [[v(i, j), v(i + 1, j), v(i + 1, j + 1)], [v(i, j), v(i + 1, j + 1), v(i, j + 1)]])
         });
         crate::scene::MeshDesc { vertices: Some(vertices), faces: Some(faces.collect()), ..Default::default() }
+    }
+
+    /// Camera rays traced as tiles of packets give the films (every sum, count and residual,
+    /// bit for bit) and the ray counts of tracing them packet by packet: a folded surface of
+    /// 800 triangles (above [`TILE_PRIMS`]) in images whose last tiles are cut by the edges
+    /// (fewer and shorter runs), one sample then more, with each pixel filter, with ray cones,
+    /// and with shadows sampled (nothing traced ahead).
+    #[test]
+    fn tiles_render_as_packets() {
+        use crate::scene::SceneDesc;
+        let lights = vec![
+            crate::light::Light::Point { position: crate::math::Vec3::new(1.5, 1.2, 0.5), color: Color::splat(0.6) },
+            crate::light::Light::Sphere {
+                center: crate::math::Vec3::new(0.0, 2.0, 0.0),
+                radius: 0.3,
+                color: Color::splat(0.3),
+            },
+        ];
+        let desc = SceneDesc { meshes: vec![folded_surface(20)], lights, ..SceneDesc::default() };
+        let scene = Scene::from_desc(&desc, &LoadContext::default()).unwrap();
+        assert!(traces_camera_tiles(&scene));
+        let base = RenderSettings { width: 45, height: 29, ..RenderSettings::default() };
+        let variants = [
+            base.clone(),
+            RenderSettings { width: 64, height: 64, filter: PixelFilter::Tent, ..base.clone() },
+            RenderSettings { filter: PixelFilter::Gaussian, texture_filter: TextureFilter::Trilinear, ..base.clone() },
+            RenderSettings { light_samples: 3, ..base.clone() },
+        ];
+        for s in variants {
+            let (packets, rays) = passes(&scene, &s, &[1, 2], CameraTrace::Plain);
+            let (tiles, tile_rays) = passes(&scene, &s, &[1, 2], CameraTrace::Fast);
+            assert_eq!(film_bits(&tiles), film_bits(&packets), "{s:?}");
+            assert_eq!(tile_rays, rays, "{s:?}");
+            let lit = packets.sums().filter(|sum| sum[1] > 0.0).count();
+            assert!(rays.shadow > 0 && lit > packets.sums().len() / 8, "{s:?}: the surface is lit ({lit} pixels)");
+        }
     }
 
     /// Camera packets whose hits trace their first shadow rays ahead, as packets, give each

@@ -7,8 +7,8 @@ use common::{Rng, assets, builtin_scene};
 use proptest::prelude::{Just, ProptestConfig, Strategy, any, prop, prop_oneof, proptest};
 use rayscope::bvh::wide::{Lanes, NodeWidth};
 use rayscope::bvh::{
-    BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, SplitRule, TraversalLog, WideBvh, WideTree,
-    split_candidates,
+    BuildParams, Bvh, Bvh4, Bvh8, Bvh16, ChildRef, Primitives, QueryKind, SplitRule, TILE_RUNS, TraversalLog, WideBvh,
+    WideTree, split_candidates,
 };
 use rayscope::geometry::aabb::safe_inv_dir;
 use rayscope::geometry::{Aabb, PrimHit, Sphere, Triangle};
@@ -524,6 +524,118 @@ fn camera_packets_equal_single_rays_on_course_scenes() {
         let hits = check_packets(&g.wide, g, &packets);
         assert!(hits > 100, "{name}: {hits} hits");
         assert_eq!(check_packets(&WideTree::with_width(&g.bvh, g, 24 - g.wide.width()), g, &packets), hits);
+    }
+}
+
+/// Tiles of rays from one origin, as a still pinhole's tile makes them: 1 to [`TILE_RUNS`]
+/// runs of 1 to 8 rays in a narrow cone (a camera tile's rows), the last run often shorter
+/// (the image's edge), some rays bounded; and tiles that cannot go as one (one run in
+/// another direction octant, of mixed signs, from another origin, or empty), which go run by
+/// run.
+fn random_tiles(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec<Vec<Ray>>> {
+    (0..n)
+        .map(|i| {
+            let origin = rng.vec3(-spread, spread);
+            let axis = rng.dir();
+            let runs = 1 + (rng.f32() * TILE_RUNS as f32) as usize % TILE_RUNS;
+            let len = 1 + (rng.f32() * 8.0) as usize % 8;
+            let mut tile: Vec<Vec<Ray>> = (0..runs)
+                .map(|r| {
+                    let len = if r + 1 == runs && rng.f32() < 0.3 { 1 + len / 2 } else { len };
+                    (0..len)
+                        .map(|_| {
+                            let mut ray = Ray::new(origin, (axis + rng.vec3(-0.05, 0.05)).normalize());
+                            if rng.f32() < 0.1 {
+                                ray.t.max = rng.range(0.1, 2.0);
+                            }
+                            ray
+                        })
+                        .collect()
+                })
+                .collect();
+            let r = i % tile.len();
+            match i % 16 {
+                0 => tile[r].iter_mut().for_each(|ray| *ray = Ray::new(origin, -ray.dir)),
+                1 => tile[r].push(Ray::new(origin, rng.dir())),
+                2 => tile[r][0] = Ray::new(origin + Vec3A::splat(1e-3), tile[r][0].dir),
+                4 => tile[r].iter_mut().for_each(|ray| *ray = Ray::new(origin + Vec3A::splat(1e-3), ray.dir)),
+                3 => tile[r].clear(),
+                _ => {}
+            }
+            tile.iter_mut().for_each(|run| run.truncate(8));
+            tile
+        })
+        .collect()
+}
+
+/// Each ray of a tile gets exactly the single-ray traversal's hit, on the detected SIMD level
+/// and the portable one, and with observers; counts in `tiled` the tiles traced as one
+/// (their rays told [`QueryKind::Tile`]). Returns the hits.
+fn check_tiles<P: Primitives>(tree: &WideTree, prims: &P, tiles: &[Vec<Vec<Ray>>], tiled: &mut usize) -> usize {
+    let portable = tree.clone().portable();
+    let mut hits = 0;
+    for tile in tiles {
+        let runs: Vec<&[Ray]> = tile.iter().map(Vec::as_slice).collect();
+        let got = tree.intersect_tile(&runs, prims);
+        assert_eq!(got, portable.intersect_tile(&runs, prims), "SIMD levels, {runs:?}");
+        let mut logs: [[TraversalLog; 8]; TILE_RUNS] = Default::default();
+        assert_eq!(got, tree.intersect_tile_counted(&runs, prims, &mut logs), "observed, {runs:?}");
+        *tiled += usize::from(logs[0][0].queries.first().is_some_and(|q| q.kind == QueryKind::Tile));
+        for (r, run_hits) in got.iter().enumerate() {
+            for (i, hit) in run_hits.iter().enumerate() {
+                let want = runs.get(r).and_then(|run| run.get(i)).and_then(|ray| tree.intersect(ray, prims));
+                assert_eq!(*hit, want, "ray {i} of run {r} of {runs:?}");
+                hits += usize::from(hit.is_some());
+            }
+        }
+    }
+    hits
+}
+
+#[test]
+fn tiles_equal_single_rays() {
+    let mut rng = Rng(31);
+    let (mut hits, mut tiled) = (0, 0);
+    for (n, size) in [(0, 0.1), (1, 0.5), (10, 0.3), (1000, 0.1), (20_000, 0.03)] {
+        let shapes = random_soup(&mut rng, n, size);
+        let tiles = random_tiles(&mut rng, 400, 1.5);
+        let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
+        let bvh = Bvh::build(&bounds, &BuildParams::default());
+        let prims = Ordered { shapes: &shapes, bvh: &bvh };
+        for width in [8, 16] {
+            hits += check_tiles(&WideTree::with_width(&bvh, &prims, width), &prims, &tiles, &mut tiled);
+        }
+    }
+    assert!(hits > 5000, "the rays must actually hit things ({hits})");
+    // Of 4000 tiles (but the empty scene's), three in four can go as one.
+    assert!(tiled > 2000, "tiles traced as one: {tiled}");
+}
+
+#[test]
+fn camera_tiles_equal_single_rays_on_course_scenes() {
+    let assets = assets("camera_tiles_equal_single_rays_on_course_scenes");
+    for name in course_scene_names(assets.as_ref()) {
+        let scene = builtin_scene(name, assets.as_ref());
+        let cam = scene.camera();
+        // Not multiples of the tile: the last tiles have shorter and fewer runs.
+        let (w, h) = (203u32, 150u32);
+        let tiles: Vec<Vec<Vec<Ray>>> = (0..h)
+            .step_by(TILE_RUNS)
+            .flat_map(|y0| (0..w).step_by(8).map(move |x0| (x0, y0)))
+            .map(|(x0, y0)| {
+                let rows = y0..(y0 + TILE_RUNS as u32).min(h);
+                rows.map(|y| (x0..(x0 + 8).min(w)).map(|x| cam.pixel_ray(x, y, w, h)).collect()).collect()
+            })
+            .collect();
+        let g = &scene.geometry;
+        let mut tiled = 0;
+        let hits = check_tiles(&g.wide, g, &tiles, &mut tiled);
+        assert!(hits > 100, "{name}: {hits} hits");
+        let other = WideTree::with_width(&g.bvh, g, 24 - g.wide.width());
+        assert_eq!(check_tiles(&other, g, &tiles, &mut tiled), hits);
+        // Every tile is traced as one: a pinhole's rays share the origin and, in a 50-degree
+        // view, nearly always their direction signs.
+        assert!(tiled > tiles.len(), "{name}: {tiled} of twice {} tiles traced as one", tiles.len());
     }
 }
 

@@ -1,6 +1,6 @@
 //! The debugger's record of the BVH traversal is the renderer's: for random pixels of the
 //! built-in scenes (the dragon too, with the course's files), the camera ray's recorded nodes
-//! are those the renderer's packet traversal enters for it, their count is the heat map's, and
+//! are those the renderer's packet (or tile) traversal enters for it, their count is the heat map's, and
 //! every recorded visit of every ray of the tree (reflections, glossy and transmission rays,
 //! shadow rays) lies within the ray's interval and hangs from a node visited before it.
 
@@ -8,12 +8,12 @@ mod common;
 
 use common::{Rng, assets, builtin_scene};
 use rayscope::aov::{Aov, render_aov};
-use rayscope::bvh::{PACKET, QueryKind, TraversalLog, TraversalStats, WideRef};
+use rayscope::bvh::{PACKET, QueryKind, TILE_RUNS, TraversalLog, TraversalStats, WideRef};
 use rayscope::camera::RayGenerator;
 use rayscope::math::{Vec2, Vec3A};
 use rayscope::ray::{Interval, Ray};
 use rayscope::record::{RayTree, RecordedTraversal};
-use rayscope::render::{TileCulling, trace_pixel};
+use rayscope::render::{TILE_ROWS, TileCulling, trace_pixel, traces_camera_tiles};
 use rayscope::scene::{Scene, builtin::BUILTINS};
 use rayscope::settings::RenderSettings;
 
@@ -41,8 +41,10 @@ fn names(t: &RecordedTraversal) -> Vec<WideRef> {
 #[test]
 fn camera_ray_records_what_the_renderers_packet_entered_and_the_heat_map_counts() {
     let mut rng = Rng(15);
-    let mut culled = 0;
-    for scene in scenes("camera_ray_records_what_the_renderers_packet_entered") {
+    let (mut culled, mut tiled) = (0, 0);
+    let scenes = scenes("camera_ray_records_what_the_renderers_packet_entered");
+    let tiles = scenes.iter().any(traces_camera_tiles);
+    for scene in scenes {
         let s = settings(&scene);
         let width = scene.geometry.wide.width();
         let heat = render_aov(&scene, &s, &scene.camera(), Aov::NodesVisited, &|_| {});
@@ -55,13 +57,26 @@ fn camera_ray_records_what_the_renderers_packet_entered_and_the_heat_map_counts(
             let recorded = camera.traversal.as_ref().expect("the camera ray's traversal is recorded");
 
             // The renderer's packet for this pixel: its run of the row, one sample at the
-            // pixel centres, traced by the scene's packet traversal with an observer.
+            // pixel centres, traced by the scene's packet traversal with an observer; or, in
+            // a scene the renderer traces by tiles, the tile of its run (the runs of the
+            // rows of its band of TILE_ROWS), traced as one.
             let x0 = x - x % PACKET as u32;
-            let run: Vec<Ray> =
-                (x0..(x0 + PACKET as u32).min(s.width)).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
-            let mut logs: [TraversalLog; PACKET] = Default::default();
-            let hits = scene.intersect_packet_counted(&run, &mut logs);
+            let run = |y| (x0..(x0 + PACKET as u32).min(s.width)).map(|x| rays.ray(x, y, Vec2::splat(0.5))).collect();
             let lane = (x - x0) as usize;
+            let (hits, logs) = if traces_camera_tiles(&scene) {
+                tiled += 1;
+                let y0 = y - y % TILE_ROWS as u32;
+                let runs: Vec<Vec<Ray>> = (y0..(y0 + TILE_ROWS as u32).min(s.height)).map(run).collect();
+                let tile: Vec<&[Ray]> = runs.iter().map(Vec::as_slice).collect();
+                let mut logs: [[TraversalLog; PACKET]; TILE_RUNS] = Default::default();
+                let hits = scene.intersect_tile_counted(&tile, &mut logs);
+                let r = (y - y0) as usize;
+                (hits[r], std::mem::take(&mut logs[r]))
+            } else {
+                let run: Vec<Ray> = run(y);
+                let mut logs: [TraversalLog; PACKET] = Default::default();
+                (scene.intersect_packet_counted(&run, &mut logs), logs)
+            };
             let expected = &RecordedTraversal::from_log(&scene, &logs[lane])[0];
             assert_eq!(recorded.query, expected.query, "{} ({x}, {y})", scene.name);
             assert_eq!(names(recorded), names(expected), "{} ({x}, {y}): the recorded visits", scene.name);
@@ -90,6 +105,7 @@ fn camera_ray_records_what_the_renderers_packet_entered_and_the_heat_map_counts(
         }
     }
     assert!(culled > 0, "no pixel of a culled tile was drawn");
+    assert_eq!(tiles, tiled > 0, "pixels of a scene traced by tiles");
 }
 
 /// The distances at which `ray` enters and leaves box `[min, max]`, in double precision.
@@ -134,7 +150,7 @@ fn check_query(scene: &Scene, t: &RecordedTraversal, what: &str) {
         let one_ray = i > 0
             && match t.query {
                 QueryKind::ClosestHit | QueryKind::AnyHit => true,
-                QueryKind::Packet => matches!(v.at, WideRef::Leaf { .. }),
+                QueryKind::Packet | QueryKind::Tile => matches!(v.at, WideRef::Leaf { .. }),
                 QueryKind::ShadowGroup => false,
             };
         if one_ray {
@@ -155,7 +171,10 @@ fn check_query(scene: &Scene, t: &RecordedTraversal, what: &str) {
 fn every_ray_of_the_tree_records_visits_within_its_interval() {
     let mut rng = Rng(51);
     let mut kinds = std::collections::HashSet::new();
-    for scene in scenes("every_ray_of_the_tree_records_visits_within_its_interval") {
+    let scenes = scenes("every_ray_of_the_tree_records_visits_within_its_interval");
+    // Camera tiles in the course's big meshes; without their files, built-in scenes are small.
+    let tiles = scenes.iter().any(traces_camera_tiles).then_some(QueryKind::Tile);
+    for scene in scenes {
         let s = settings(&scene);
         let width = scene.geometry.wide.width() as u32;
         for _ in 0..8 {
@@ -183,7 +202,8 @@ fn every_ray_of_the_tree_records_visits_within_its_interval() {
             }
         }
     }
-    for kind in [QueryKind::Packet, QueryKind::ClosestHit, QueryKind::AnyHit, QueryKind::ShadowGroup] {
+    let always = [QueryKind::Packet, QueryKind::ClosestHit, QueryKind::AnyHit, QueryKind::ShadowGroup];
+    for kind in always.into_iter().chain(tiles) {
         assert!(kinds.contains(&kind), "no {kind:?} query was recorded: the test misses a path");
     }
 }

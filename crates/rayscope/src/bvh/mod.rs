@@ -24,8 +24,8 @@ pub use split_candidates::{Candidate, ChosenSplit, SplitCandidates, split_candid
 pub use stats::{BvhStats, LevelBox, NoObserver, NodeLog, QueryKind, TraversalObserver, TraversalStats};
 pub use validate::BvhError;
 pub use wide::{
-    Bvh4, Bvh8, Bvh16, ChildRef, FrustumTest, LoggedQuery, Occluders, PACKET, SimdLevel, TraversalLog, WideBox,
-    WideBvh, WideRef, WideTree,
+    Bvh4, Bvh8, Bvh16, ChildRef, FrustumTest, LoggedQuery, Occluders, PACKET, SimdLevel, TILE_RUNS, TileHits,
+    TraversalLog, WideBox, WideBvh, WideRef, WideTree,
 };
 
 use crate::geometry::PrimHit;

@@ -26,6 +26,10 @@ pub enum QueryKind {
     /// ([`crate::bvh::WideBvh::intersect_packet`]): inner nodes are tested once for the whole
     /// packet, so the ray pays for every node the packet enters; leaves are tested per ray.
     Packet,
+    /// The closest hit of one ray of a tile of camera rays, up to eight packets of them
+    /// ([`crate::bvh::WideBvh::intersect_tile`]): inner nodes are tested once for the whole
+    /// tile, so the ray pays for every node the tile enters; leaves are tested per ray.
+    Tile,
     /// Whether anything blocks a shadow ray ([`crate::bvh::WideBvh::occluded`]): stops at the
     /// first blocker found.
     AnyHit,

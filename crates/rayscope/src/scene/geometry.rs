@@ -4,7 +4,7 @@ use rayon::prelude::*;
 
 use super::{Hit, Mesh, PrimRef, SceneSphere};
 use crate::animation::Shutter;
-use crate::bvh::{BuildParams, Bvh, NoObserver, Occluders, PACKET, Primitives, TraversalObserver, WideTree};
+use crate::bvh::{BuildParams, Bvh, NoObserver, Occluders, PACKET, Primitives, TILE_RUNS, TraversalObserver, WideTree};
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::motion::MotionPath;
@@ -369,6 +369,24 @@ impl Geometry {
     pub fn intersect_binary<O: TraversalObserver>(&self, ray: &Ray, stats: &mut O) -> Option<Hit> {
         let hit = self.bvh.intersect_counted(ray, self, stats);
         self.scene_hit(hit)
+    }
+
+    /// Closest hits of up to [`TILE_RUNS`] runs of rays, traced as one tile when they share
+    /// an origin (see [`crate::bvh::WideBvh::intersect_tile`]); each is what
+    /// [`Geometry::intersect`] gives.
+    #[inline(always)]
+    pub fn intersect_tile(&self, runs: &[&[Ray]]) -> [[Option<Hit>; PACKET]; TILE_RUNS] {
+        self.wide.intersect_tile(runs, self).map(|run| run.map(|h| self.scene_hit(h)))
+    }
+
+    /// [`Geometry::intersect_tile`], reporting each ray's traversal to its observer in `obs`
+    /// (see [`crate::bvh::WideBvh::intersect_tile_counted`]).
+    pub fn intersect_tile_counted<O: TraversalObserver>(
+        &self,
+        runs: &[&[Ray]],
+        obs: &mut [[O; PACKET]; TILE_RUNS],
+    ) -> [[Option<Hit>; PACKET]; TILE_RUNS] {
+        self.wide.intersect_tile_counted(runs, self, obs).map(|run| run.map(|h| self.scene_hit(h)))
     }
 
     /// Whether anything blocks `ray` (through the wide BVH). Out of line, as

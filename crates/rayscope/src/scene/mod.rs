@@ -395,6 +395,26 @@ impl Scene {
         self.geometry.intersect_packet_counted(rays, obs)
     }
 
+    /// The closest hits of up to [`crate::bvh::TILE_RUNS`] runs of up to
+    /// [`crate::bvh::PACKET`] rays each (the camera rays of a tile of pixels, row by row):
+    /// each is what [`Scene::intersect`] gives, found in one traversal of the tile when the
+    /// rays share an origin.
+    #[inline(always)]
+    pub fn intersect_tile(&self, runs: &[&[Ray]]) -> [[Option<Hit>; crate::bvh::PACKET]; crate::bvh::TILE_RUNS] {
+        self.geometry.intersect_tile(runs)
+    }
+
+    /// [`Scene::intersect_tile`], reporting each ray's traversal to its observer in `obs`
+    /// (`obs[r][i]` for `runs[r][i]`; see [`crate::bvh::WideBvh::intersect_tile_counted`]).
+    #[inline]
+    pub fn intersect_tile_counted<O: TraversalObserver>(
+        &self,
+        runs: &[&[Ray]],
+        obs: &mut [[O; crate::bvh::PACKET]; crate::bvh::TILE_RUNS],
+    ) -> [[Option<Hit>; crate::bvh::PACKET]; crate::bvh::TILE_RUNS] {
+        self.geometry.intersect_tile_counted(runs, obs)
+    }
+
     /// Levels of the wide BVH that rendering traverses, counting the boxes of its leaves:
     /// [`Scene::wide_boxes_at_level`] takes `0..wide_levels()`.
     pub fn wide_levels(&self) -> u32 {

@@ -24,7 +24,8 @@
 //! - `stack.rs`: the traversals' fixed stack;
 //! - `traverse.rs`: closest-hit and any-hit traversal, one ray at a time;
 //! - `packet/`: closest hits of packets of camera rays that share an origin (`mod.rs`: the
-//!   traversal; `setup.rs`: the packet's set-up, portable and in AVX2 lanes);
+//!   traversal; `setup.rs`: the packet's set-up, portable and in AVX2 lanes; `tile.rs`: up
+//!   to eight packets, a tile's rows, walking the tree once);
 //! - `occluded_packet.rs`: any-hit for packets of rays with their own origins (shadow rays
 //!   of neighbouring pixels towards one light), each ray with its single-ray node test;
 //! - `frustum.rs`: whether a frustum of rays (a tile's camera rays) may meet any leaf box;
@@ -57,7 +58,7 @@ pub use frustum::FrustumTest;
 #[doc(hidden)]
 pub use kernels::{Lanes, NodeWidth};
 pub use layout::{EMPTY, LeafRange, Tri4, WideNode};
-pub use packet::{PACKET, PacketHits};
+pub use packet::{PACKET, PacketHits, TILE_RUNS, TileHits};
 pub use shadow::{MAX_LEAVES, MAX_TRIANGLES, Occluders};
 pub use simd::SimdLevel;
 pub use tree::{MIN_PRIMS_16, WideTree};

@@ -115,6 +115,19 @@ pub(super) fn sort_far_to_near<E: Copy>(order: &mut [E], near: impl Fn(&E) -> f3
     }
 }
 
+/// The nearest of a node's entered children `order` (at least one, in lane order), to go
+/// into next; the others pushed on `stack` farthest first, so that they pop nearest first.
+/// Packets and tiles both descend with it.
+#[inline(always)]
+pub(super) fn descend<E: Copy>(order: &mut [E], stack: &mut Stack<E>, near: impl Fn(&E) -> f32) -> E {
+    sort_far_to_near(order, near);
+    let last = order.len() - 1;
+    for &e in &order[..last] {
+        stack.push(e);
+    }
+    order[last]
+}
+
 /// Put the hit children `hit` of a node (references `child`, entry distances `near`) into
 /// `order` farthest first, calling `visit` on each as it is placed; returns their number.
 ///

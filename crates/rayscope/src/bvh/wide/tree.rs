@@ -6,7 +6,7 @@
 //! camera packets 9% and shadow rays 15% (BENCHMARKS.md, sixth round). Both widths give the
 //! same hits, bit for bit.
 
-use super::packet::{PACKET, PacketHits};
+use super::packet::{PACKET, PacketHits, TILE_RUNS, TileHits};
 use super::shadow::Occluders;
 use super::{Bvh8, Bvh16, ChildRef, FrustumTest, SimdLevel, WideBox, WideRef};
 use crate::bvh::{Bvh, BvhError, BvhHit, Primitives, TraversalObserver};
@@ -130,6 +130,25 @@ impl WideTree {
     #[inline]
     pub fn intersect_packet<P: Primitives + ?Sized>(&self, rays: &[Ray], prims: &P) -> PacketHits {
         each!(self, t => t.intersect_packet(rays, prims))
+    }
+
+    /// The closest hits of up to [`TILE_RUNS`] runs of rays (see
+    /// [`crate::bvh::WideBvh::intersect_tile`]).
+    #[inline]
+    pub fn intersect_tile<P: Primitives + ?Sized>(&self, runs: &[&[Ray]], prims: &P) -> TileHits {
+        each!(self, t => t.intersect_tile(runs, prims))
+    }
+
+    /// [`WideTree::intersect_tile`], reporting each ray's traversal to its observer (see
+    /// [`crate::bvh::WideBvh::intersect_tile_counted`]).
+    #[inline]
+    pub fn intersect_tile_counted<P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        runs: &[&[Ray]],
+        prims: &P,
+        obs: &mut [[O; PACKET]; TILE_RUNS],
+    ) -> TileHits {
+        each!(self, t => t.intersect_tile_counted(runs, prims, obs))
     }
 
     /// [`WideTree::intersect_packet`], reporting each ray's traversal to its observer (see

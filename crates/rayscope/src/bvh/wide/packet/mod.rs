@@ -22,7 +22,10 @@
 //!
 //! Here: the traversal and its inner-node tests (portable, AVX2, AVX-512). In `setup`: the
 //! packet's set-up, which checks that the rays can go as one and puts them in the layouts the
-//! tests need, ray by ray or eight lanes at a time in AVX2 (the same packet bit for bit).
+//! tests need, ray by ray or eight lanes at a time in AVX2 (the same packet bit for bit). In
+//! `tile`: up to eight packets (a camera tile's rows) walking the tree once, the inner nodes
+//! tested for all of them, the leaves per packet by the packet's own leaf code
+//! (`WideBvh::packet_leaf`).
 
 use wide::f32x8;
 
@@ -32,13 +35,16 @@ use super::simd::Baseline;
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2, Avx512};
 use super::stack::Stack;
-use super::traverse::{OneRay, pair_closest, sort_far_to_near};
+use super::traverse::{OneRay, descend, pair_closest};
 use super::{ChildRef, Simd, WideBvh};
 use crate::bvh::{BvhHit, NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
 mod setup;
+mod tile;
+
+pub use tile::{TILE_RUNS, TileHits};
 
 /// Rays per packet.
 pub const PACKET: usize = 8;
@@ -82,6 +88,7 @@ struct Entry {
 }
 
 /// The packet in the layouts its tests need.
+#[derive(Clone)]
 pub struct Packet {
     /// Shared origin.
     o: Vec3A,
@@ -449,71 +456,17 @@ where
         hits: &mut PacketHits,
         obs: &mut [O; PACKET],
     ) {
-        let n = rays.len();
         let nodes = Q::new(node_cpu, p);
-        let mut t_max: [f32; PACKET] = p.t_end.to_array();
+        let mut state = PacketRays::new(p, rays.len());
         // The packet's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = p.t_far;
-
-        // Each ray's leaf-test set-up, made when the ray first reaches a leaf (rays that miss
-        // everything never need one).
-        let mut singles: [std::mem::MaybeUninit<RayLanes>; PACKET] =
-            [const { std::mem::MaybeUninit::uninit() }; PACKET];
-        let mut made = 0u32;
 
         let mut stack: Stack<Entry> = Stack::new();
         let mut current = Entry { child: ChildRef::ROOT, lanes: p.active, near: 0.0 };
         loop {
             if current.child.is_leaf() {
-                for lane in lanes_of(current.lanes) {
-                    if made & 1 << lane == 0 {
-                        // From the inverse direction the packet has: no division.
-                        let inv = Vec3A::from_array(p.inv.map(|v| v.as_array()[lane]));
-                        singles[lane].write(RayLanes::with_inv(&rays[lane], inv));
-                        made |= 1 << lane;
-                    }
-                    obs[lane].entered_leaf(current.child);
-                }
-                // SAFETY: every lane of the entry was written above, or earlier as `made`
-                // records.
-                let single = |lane: usize| unsafe { singles[lane].assume_init_ref() };
-                let lead = current.lanes.trailing_zeros() as usize;
-                let shared = current.child.is_packed()
-                    && current.lanes & (current.lanes - 1) != 0
-                    && lanes_of(current.lanes).all(|lane| single(lane).tri.axes == single(lead).tri.axes);
-                if shared {
-                    // Rays of one origin with the same axes: each pair's corners are loaded and
-                    // translated once for all of them, and each ray goes on from there, pair by
-                    // pair as alone (the same tests in the same order, so the same hits).
-                    for pair in self.block_pairs(current.child) {
-                        let corners = T::pair_corners(leaf_cpu, single(lead), pair.0, pair.1);
-                        for lane in lanes_of(current.lanes) {
-                            pair_closest::<W, T, O>(
-                                leaf_cpu,
-                                single(lane),
-                                &corners,
-                                pair,
-                                rays[lane].t.min,
-                                &mut obs[lane],
-                                &mut t_max[lane],
-                                &mut hits[lane],
-                            );
-                        }
-                    }
-                } else {
-                    for lane in lanes_of(current.lanes) {
-                        let one = OneRay { ray: &rays[lane], cpu: leaf_cpu, lanes: single(lane) };
-                        self.leaf_closest::<T, P, O>(
-                            current.child,
-                            &one,
-                            prims,
-                            &mut obs[lane],
-                            &mut t_max[lane],
-                            &mut hits[lane],
-                        );
-                    }
-                }
-                t_far = t_max[..n].iter().copied().fold(f32::NEG_INFINITY, greater);
+                self.packet_leaf::<T, P, O>(leaf_cpu, current.child, current.lanes, rays, p, prims, obs, &mut state);
+                t_far = state.t_far();
             } else {
                 let node = &self.nodes[current.child.node_index() as usize];
                 if O::WATCHES {
@@ -529,7 +482,7 @@ where
                 let (near, mut mask) = nodes.test(p, node, t_far);
                 let mut order = [Entry { child: ChildRef::EMPTY, lanes: 0, near: 0.0 }; W];
                 let mut k = 0;
-                let t_max_v = f32x8::new(t_max);
+                let t_max_v = f32x8::new(state.t_max);
                 while mask != 0 {
                     let i = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
@@ -546,21 +499,115 @@ where
                     }
                 }
                 if k > 0 {
-                    // Nearest child next; the others pushed farthest first.
-                    sort_far_to_near(&mut order[..k], |e| e.near);
-                    for &e in &order[..k - 1] {
-                        stack.push(e);
-                    }
-                    current = order[k - 1];
+                    current = descend(&mut order[..k], &mut stack, |e| e.near);
                     continue;
                 }
             }
             loop {
-                let Some(e) = stack.pop() else { return };
+                let Some(e) = stack.pop() else {
+                    *hits = state.hits;
+                    return;
+                };
                 if e.near <= t_far {
                     current = e;
                     break;
                 }
+            }
+        }
+    }
+}
+
+/// What a packet's traversal keeps of each ray: the end of its interval (its closest hit's
+/// distance once it has one), the hit, and its leaf-test set-up, made when the ray first
+/// reaches a leaf (rays that miss everything never need one).
+pub(super) struct PacketRays {
+    t_max: [f32; PACKET],
+    hits: PacketHits,
+    singles: [std::mem::MaybeUninit<RayLanes>; PACKET],
+    /// The lanes whose `singles` are made.
+    made: u32,
+    /// Rays in the packet.
+    n: usize,
+}
+
+impl PacketRays {
+    /// The rays of packet `p` of `n` rays, before the traversal.
+    #[inline(always)]
+    pub(super) fn new(p: &Packet, n: usize) -> PacketRays {
+        PacketRays {
+            t_max: p.t_end.to_array(),
+            hits: [None; PACKET],
+            singles: [const { std::mem::MaybeUninit::uninit() }; PACKET],
+            made: 0,
+            n,
+        }
+    }
+
+    /// The farthest interval end over the packet's rays.
+    #[inline(always)]
+    pub(super) fn t_far(&self) -> f32 {
+        self.t_max[..self.n].iter().copied().fold(f32::NEG_INFINITY, greater)
+    }
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth<W> + PacketWidth<W>,
+{
+    /// The rays `lanes` of packet `p` (made of `rays`) in leaf `leaf`: each ray's closest hit
+    /// in `state` updated by the leaf's primitives (`T` the leaf test, on `leaf_cpu`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn packet_leaf<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
+        &self,
+        leaf_cpu: T::Cpu,
+        leaf: ChildRef,
+        lanes: u32,
+        rays: &[Ray],
+        p: &Packet,
+        prims: &P,
+        obs: &mut [O; PACKET],
+        state: &mut PacketRays,
+    ) {
+        let PacketRays { t_max, hits, singles, made, .. } = state;
+        for lane in lanes_of(lanes) {
+            if *made & 1 << lane == 0 {
+                // From the inverse direction the packet has: no division.
+                let inv = Vec3A::from_array(p.inv.map(|v| v.as_array()[lane]));
+                singles[lane].write(RayLanes::with_inv(&rays[lane], inv));
+                *made |= 1 << lane;
+            }
+            obs[lane].entered_leaf(leaf);
+        }
+        // SAFETY: every lane of the entry was written above, or earlier as `made` records.
+        let single = |lane: usize| unsafe { singles[lane].assume_init_ref() };
+        let lead = lanes.trailing_zeros() as usize;
+        let shared = leaf.is_packed()
+            && lanes & (lanes - 1) != 0
+            && lanes_of(lanes).all(|lane| single(lane).tri.axes == single(lead).tri.axes);
+        if shared {
+            // Rays of one origin with the same axes: each pair's corners are loaded and
+            // translated once for all of them, and each ray goes on from there, pair by pair
+            // as alone (the same tests in the same order, so the same hits).
+            for pair in self.block_pairs(leaf) {
+                let corners = T::pair_corners(leaf_cpu, single(lead), pair.0, pair.1);
+                for lane in lanes_of(lanes) {
+                    pair_closest::<W, T, O>(
+                        leaf_cpu,
+                        single(lane),
+                        &corners,
+                        pair,
+                        rays[lane].t.min,
+                        &mut obs[lane],
+                        &mut t_max[lane],
+                        &mut hits[lane],
+                    );
+                }
+            }
+        } else {
+            for lane in lanes_of(lanes) {
+                let one = OneRay { ray: &rays[lane], cpu: leaf_cpu, lanes: single(lane) };
+                self.leaf_closest::<T, P, O>(leaf, &one, prims, &mut obs[lane], &mut t_max[lane], &mut hits[lane]);
             }
         }
     }
