@@ -603,7 +603,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 std::array::from_fn(|i| self.pinhole_ray(x0 + i.min(n - 1) as u32, y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let run = PixelRun { x0, y, sums: &mut *sums, counts: &mut *counts, residuals: &mut *residuals };
-            self.shade_run(run, k, samplers, &rays[..n], &hits, &mut total);
+            self.shade_run(run, k, &samplers, &rays[..n], &hits, &mut total);
         }
         counts.fill(last);
         total
@@ -629,13 +629,16 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let x = |i: usize| x0 + i.min(n - 1) as u32;
         let y = |r: usize| y0 + r.min(m - 1) as u32;
         for k in first..last {
-            let samplers: [[PixelSampler; PACKET]; TILE_ROWS] =
-                std::array::from_fn(|r| std::array::from_fn(|i| self.sampler(x(i), y(r), k)));
-            let rays: [[Ray; PACKET]; TILE_ROWS] =
-                std::array::from_fn(|r| std::array::from_fn(|i| self.pinhole_ray(x(i), y(r), &samplers[r][i])));
-            let tile: [&[Ray]; TILE_ROWS] = std::array::from_fn(|r| &rays[r][..n]);
+            // Flat arrays, run after run, each built in place (nested `array::from_fn`s built
+            // each run's array apart and copied it in).
+            let samplers: [PixelSampler; PACKET * TILE_ROWS] =
+                std::array::from_fn(|j| self.sampler(x(j % PACKET), y(j / PACKET), k));
+            let rays: [Ray; PACKET * TILE_ROWS] =
+                std::array::from_fn(|j| self.pinhole_ray(x(j % PACKET), y(j / PACKET), &samplers[j]));
+            let tile: [&[Ray]; TILE_ROWS] = std::array::from_fn(|r| &rays[r * PACKET..][..n]);
             let hits = self.integrator.scene.intersect_tile(&tile[..m]);
-            for ((r, (sums, counts)), samplers) in runs.iter_mut().flatten().enumerate().zip(samplers) {
+            let (run_samplers, _) = samplers.as_chunks::<PACKET>();
+            for ((r, (sums, counts)), samplers) in runs.iter_mut().flatten().enumerate().zip(run_samplers) {
                 let run = PixelRun { x0, y: y(r), sums, counts, residuals: &mut *residuals };
                 self.shade_run(run, k, samplers, tile[r], &hits[r], &mut total);
             }
@@ -657,7 +660,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         &self,
         run: PixelRun<A>,
         k: u32,
-        samplers: [PixelSampler; PACKET],
+        samplers: &[PixelSampler; PACKET],
         rays: &[Ray],
         hits: &[Option<Hit>; PACKET],
         total: &mut Tally,
@@ -688,14 +691,14 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             if self.mirrors_ahead {
                 self.integrator.first_mirrors(rays, &seen, &mut ahead);
             }
-            for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+            for (i, sampler) in samplers.iter().cloned().enumerate().take(n) {
                 let mut ctx = PathContext::new(sampler, &mut rec);
                 let c = self.integrator.li_seen(&rays[i], seen[i].as_ref(), ahead[i], &mut ctx);
                 add(i, c, ctx.counts);
             }
             return;
         }
-        for (i, sampler) in samplers.into_iter().enumerate().take(n) {
+        for (i, sampler) in samplers.iter().cloned().enumerate().take(n) {
             let mut ctx = PathContext::new(sampler, &mut rec);
             let c = self.integrator.li_hit(&rays[i], hits[i], RayKind::Camera, 0, &mut ctx);
             add(i, c, ctx.counts);

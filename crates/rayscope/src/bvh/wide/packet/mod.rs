@@ -531,16 +531,32 @@ pub(super) struct PacketRays {
 }
 
 impl PacketRays {
+    /// No rays (for a tile's runs beyond its packets, or to be [`PacketRays::start`]ed): an
+    /// array of them is built in place, where one built by `array::from_fn` was copied,
+    /// uninitialised leaf set-ups and all (a kilobyte a packet).
+    pub(super) const NONE: PacketRays = PacketRays {
+        t_max: [f32::NEG_INFINITY; PACKET],
+        hits: [None; PACKET],
+        singles: [const { std::mem::MaybeUninit::uninit() }; PACKET],
+        made: 0,
+        n: 0,
+    };
+
     /// The rays of packet `p` of `n` rays, before the traversal.
     #[inline(always)]
     pub(super) fn new(p: &Packet, n: usize) -> PacketRays {
-        PacketRays {
-            t_max: p.t_end.to_array(),
-            hits: [None; PACKET],
-            singles: [const { std::mem::MaybeUninit::uninit() }; PACKET],
-            made: 0,
-            n,
-        }
+        let mut rays = PacketRays::NONE;
+        rays.start(p, n);
+        rays
+    }
+
+    /// Make these the rays of packet `p` of `n` rays, before the traversal.
+    #[inline(always)]
+    pub(super) fn start(&mut self, p: &Packet, n: usize) {
+        self.t_max = p.t_end.to_array();
+        self.hits = [None; PACKET];
+        self.made = 0;
+        self.n = n;
     }
 
     /// The farthest interval end over the packet's rays.

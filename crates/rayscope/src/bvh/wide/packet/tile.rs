@@ -234,9 +234,10 @@ where
     ) {
         let nodes = Q::new(node_cpu, tile);
         // Runs beyond the tile's have no rays (and no say in `t_far`).
-        let mut state: [PacketRays; TILE_RUNS] = std::array::from_fn(|r| {
-            PacketRays::new(&packets[r.min(packets.len() - 1)], runs.get(r).map_or(0, |x| x.len()))
-        });
+        let mut state = [const { PacketRays::NONE }; TILE_RUNS];
+        for ((s, p), rays) in state.iter_mut().zip(packets).zip(runs) {
+            s.start(p, rays.len());
+        }
         // The tile's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = tile.t_far;
         let all = packets.iter().enumerate().fold(0u64, |m, (r, p)| m | u64::from(p.active) << (8 * r));
