@@ -8,8 +8,10 @@
 //!
 //! For each mesh (the dragon and the teapot from the course's files, and a procedural mesh of
 //! about a million triangles) it builds both BVHs, traces 800x800 camera rays (one at a time,
-//! and in packets of eight neighbouring pixels: our `intersect_packet` against Embree's
-//! `rtcIntersect8`), as many incoherent rays (random origins in the scene's box, random
+//! in packets of eight neighbouring pixels: our `intersect_packet` against Embree's
+//! `rtcIntersect8`, and in tiles of 8 x 8 pixels: our `intersect_tile`, the render's way in
+//! big scenes, against `rtcIntersect8` on each of the tile's eight rows, the same rays in the
+//! same order), as many incoherent rays (random origins in the scene's box, random
 //! directions) and shadow rays (any-hit) on 1 and 2 threads, checks that both find the same
 //! closest hits, and prints the times, throughputs and ratios as a Markdown table. Embree gets
 //! its recommended settings: flush-to-zero and denormals-are-zero on every thread, the
@@ -24,7 +26,7 @@ use std::time::{Duration, Instant};
 
 use embree::sys;
 use rayon::prelude::*;
-use rayscope::bvh::PACKET;
+use rayscope::bvh::{PACKET, TILE_RUNS};
 use rayscope::camera::CameraDesc;
 use rayscope::material::Material;
 use rayscope::math::Vec3A;
@@ -271,6 +273,39 @@ where
     (rate(a), rate(b))
 }
 
+/// Rays per second of `ours` and `theirs` over the 800x800 camera rays `rays` (row after
+/// row) cut into tiles of [`TILE_RUNS`] rows of [`PACKET`] pixels, each function given a
+/// tile's runs; the fastest of [`REPS`] alternating passes each.
+fn compare_tiles<F, G>(pool: &rayon::ThreadPool, rays: &[Ray], ours: F, theirs: G) -> (f64, f64)
+where
+    F: Fn(&[&[Ray]]) -> usize + Sync,
+    G: Fn(&[&[Ray]]) -> usize + Sync,
+{
+    const WIDTH: usize = 800;
+    let tiles = |band: &[Ray], f: &(dyn Fn(&[&[Ray]]) -> usize + Sync)| {
+        (0..WIDTH)
+            .step_by(PACKET)
+            .map(|x0| {
+                let runs: [&[Ray]; TILE_RUNS] = std::array::from_fn(|r| &band[WIDTH * r + x0..][..PACKET]);
+                f(&runs)
+            })
+            .sum::<usize>()
+    };
+    let pass = |f: &(dyn Fn(&[&[Ray]]) -> usize + Sync)| {
+        let start = Instant::now();
+        let hits = pool.install(|| rays.par_chunks(WIDTH * TILE_RUNS).map(|band| tiles(band, f)).sum::<usize>());
+        std::hint::black_box(hits);
+        start.elapsed()
+    };
+    let (mut a, mut b) = (Duration::MAX, Duration::MAX);
+    for _ in 0..REPS {
+        a = a.min(pass(&ours));
+        b = b.min(pass(&theirs));
+    }
+    let rate = |d: Duration| rays.len() as f64 / d.as_secs_f64() / 1e6;
+    (rate(a), rate(b))
+}
+
 fn main() {
     let assets = common::assets();
     if assets.is_none() {
@@ -286,9 +321,9 @@ fn main() {
     }
     println!("Our traversal: {:?} (chosen at run time).\n", rayscope::bvh::SimdLevel::detect());
     println!(
-        "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | camera, packets of 8 | incoherent | any-hit (shadow) | hits agree |"
+        "| mesh | triangles | threads | build ms (ours / Embree) | camera Mrays/s (ours / Embree / ratio) | camera, packets of 8 | camera, tiles of 8 x 8 | incoherent | any-hit (shadow) | hits agree |"
     );
-    println!("|---|---:|---:|---|---|---|---|---|---|");
+    println!("|---|---:|---:|---|---|---|---|---|---|---|");
     for soup in &soups {
         let scene = ours(soup);
         let cam = common::camera_rays(&scene);
@@ -333,17 +368,27 @@ fn main() {
             assert_eq!(hits(&|c| emb.intersect8(c)), single, "rtcIntersect8 and rtcIntersect1 disagree");
             assert_eq!(hits(&our_packet), cam.iter().filter(|r| scene.intersect(r).is_some()).count());
             let (op, ep) = compare_groups(&pool, &cam, PACKET, our_packet, |c| emb.intersect8(c));
+            let our_tile = |t: &[&[Ray]]| scene.intersect_tile(t).iter().flatten().filter(|h| h.is_some()).count();
+            let their_tile = |t: &[&[Ray]]| t.iter().map(|run| emb.intersect8(run)).sum();
+            let in_tiles = cam.chunks(800 * TILE_RUNS).map(|band| {
+                let tile =
+                    |x0: usize| our_tile(&std::array::from_fn::<_, TILE_RUNS, _>(|r| &band[800 * r + x0..][..PACKET]));
+                (0..800).step_by(PACKET).map(tile).sum::<usize>()
+            });
+            assert_eq!(in_tiles.sum::<usize>(), hits(&our_packet), "tiles and packets disagree");
+            let (ot, et) = compare_tiles(&pool, &cam, our_tile, their_tile);
             let (oi, ei) =
                 compare(&pool, &inc, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, false).is_some());
             let (os, es) = compare(&pool, &shadow, |r| scene.occluded(r), |r| emb.occluded(r));
             println!(
-                "| {} | {} | {threads} | {:.1} / {:.1} | {oc:.2} / {ec:.2} / {:.2} | {op:.2} / {ep:.2} / {:.2} | {oi:.2} / {ei:.2} / {:.2} | {os:.2} / {es:.2} / {:.2} | {} of {total} differ |",
+                "| {} | {} | {threads} | {:.1} / {:.1} | {oc:.2} / {ec:.2} / {:.2} | {op:.2} / {ep:.2} / {:.2} | {ot:.2} / {et:.2} / {:.2} | {oi:.2} / {ei:.2} / {:.2} | {os:.2} / {es:.2} / {:.2} | {} of {total} differ |",
                 soup.name,
                 soup.triangles.len(),
                 build_ours.as_secs_f64() * 1e3,
                 emb_build.as_secs_f64() * 1e3,
                 oc / ec,
                 op / ep,
+                ot / et,
                 oi / ei,
                 os / es,
                 disagree
