@@ -282,9 +282,9 @@ const BAND_ROWS: usize = 8;
 pub const TILE_ROWS: usize = 8;
 
 /// Fewest primitives for a scene's camera rays to go through the BVH as tiles of packets
-/// ([`Scene::intersect_tile`]) rather than packet by packet: the Cornell box's 32 triangles
-/// (a root and its leaves) traced 6% slower as tiles, the teapot's 14% and the dragon's 18%
-/// faster (BENCHMARKS.md, session 28).
+/// ([`Scene::intersect_tile`]) rather than packet by packet: the camera hits of the Cornell
+/// box's 32 triangles (a root and its leaves) took 6% longer as tiles, the teapot's 11-14%
+/// and the dragon's 12-19% less (BENCHMARKS.md, session 28).
 pub const TILE_PRIMS: usize = 256;
 
 /// Whether a still pinhole camera's rays in `scene` go through the BVH as tiles of packets
@@ -402,39 +402,49 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                 let mut residuals = Vec::new();
                 let y0 = b * BAND_ROWS;
                 let culled = self.culled_tiles(y0, sums.len() / w);
-                let tiles = w.div_ceil(PACKET);
                 if self.tiles {
                     self.band_by_tiles(y0 as u32, sums, counts, &culled, &mut tally, &mut residuals);
-                    let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
-                    progress(RenderProgress { done: d, total });
-                    return Band { tally, residuals, complete: true };
-                }
-                let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
-                for (row, (sums, counts)) in rows.enumerate() {
-                    let y = (y0 + row) as u32;
-                    let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
-                    for (run, (sums, counts)) in runs.enumerate() {
-                        let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut residuals };
-                        if let Some((_, miss)) = self.cull.filter(|_| culled[row / TILE_ROWS * tiles + run]) {
-                            tally.add(self.fill_missed(pixels, miss));
-                            continue;
-                        }
-                        // Pixels side by side that are at the same sample, seen by a still
-                        // camera: their camera rays share the pinhole and go through the BVH
-                        // together.
-                        let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
-                        tally.add(if self.packets && same {
-                            self.sample_run(pixels)
-                        } else {
-                            self.sample_alone(pixels)
-                        });
-                    }
+                } else {
+                    self.band_by_runs(y0 as u32, sums, counts, &culled, &mut tally, &mut residuals);
                 }
                 let d = done.fetch_add(sums.len(), Ordering::Relaxed) + sums.len();
                 progress(RenderProgress { done: d, total });
                 Band { tally, residuals, complete: true }
             })
             .collect()
+    }
+
+    /// Add the pass's samples to the band of rows from `y0` (its film `sums` and `counts`,
+    /// `culled` its tiles' culling as [`Pass::culled_tiles`] gives it) run by run: each run of
+    /// a row's [`PACKET`] pixels filled where its tile is culled, else traced as a packet
+    /// ([`Pass::sample_run`]) or pixel by pixel.
+    fn band_by_runs<A: PixelAccumulator>(
+        &self,
+        y0: u32,
+        sums: &mut [A],
+        counts: &mut [u32],
+        culled: &[bool],
+        tally: &mut Tally,
+        residuals: &mut Vec<Residual>,
+    ) {
+        let w = self.integrator.settings.width as usize;
+        let tiles = w.div_ceil(PACKET);
+        let rows = sums.chunks_mut(w).zip(counts.chunks_mut(w));
+        for (row, (sums, counts)) in rows.enumerate() {
+            let y = y0 + row as u32;
+            let runs = sums.chunks_mut(PACKET).zip(counts.chunks_mut(PACKET));
+            for (run, (sums, counts)) in runs.enumerate() {
+                let pixels = PixelRun { x0: (run * PACKET) as u32, y, sums, counts, residuals: &mut *residuals };
+                if let Some((_, miss)) = self.cull.filter(|_| culled[row / TILE_ROWS * tiles + run]) {
+                    tally.add(self.fill_missed(pixels, miss));
+                    continue;
+                }
+                // Pixels side by side that are at the same sample, seen by a still camera:
+                // their camera rays share the pinhole and go through the BVH together.
+                let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
+                tally.add(if self.packets && same { self.sample_run(pixels) } else { self.sample_alone(pixels) });
+            }
+        }
     }
 
     /// Add the pass's samples to the band of rows from `y0` (its film `sums` and `counts`,

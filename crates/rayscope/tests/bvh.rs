@@ -598,7 +598,10 @@ fn tiles_equal_single_rays() {
     let (mut hits, mut tiled) = (0, 0);
     for (n, size) in [(0, 0.1), (1, 0.5), (10, 0.3), (1000, 0.1), (20_000, 0.03)] {
         let shapes = random_soup(&mut rng, n, size);
-        let tiles = random_tiles(&mut rng, 400, 1.5);
+        let mut tiles = random_tiles(&mut rng, 400, 1.5);
+        // No runs at all, and more runs than a tile holds (those beyond are not traced).
+        tiles.push(Vec::new());
+        tiles.push(vec![tiles[5][0].clone(); TILE_RUNS + 1]);
         let bounds: Vec<Aabb> = shapes.iter().map(Shape::bounds).collect();
         let bvh = Bvh::build(&bounds, &BuildParams::default());
         let prims = Ordered { shapes: &shapes, bvh: &bvh };

@@ -74,7 +74,7 @@ where
         obs: &mut [[O; PACKET]; TILE_RUNS],
     ) -> TileHits {
         let mut hits = [[None; PACKET]; TILE_RUNS];
-        if runs.len() > TILE_RUNS || runs.iter().any(|r| r.is_empty()) || self.nodes.is_empty() {
+        if runs.is_empty() || runs.len() > TILE_RUNS || runs.iter().any(|r| r.is_empty()) || self.nodes.is_empty() {
             self.tile_by_packets(runs, prims, obs, &mut hits);
             return hits;
         }
