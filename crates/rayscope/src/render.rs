@@ -525,8 +525,8 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     }
 
     /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,
-    /// uses (or [`Pass::sample_run`], which differs only in finding the camera rays' hits as
-    /// a packet).
+    /// uses (or [`Pass::sample_run`] and [`Pass::sample_tile`], which differ only in finding
+    /// the camera rays' hits as a packet or a tile).
     fn sample_pixel<R: RayRecorder>(&self, x: u32, y: u32, k: u32, rec: &mut R) -> (Color, RayCounts) {
         let sampler = self.sampler(x, y, k);
         let ray = self.camera_ray(x, y, k, &sampler);
