@@ -2,9 +2,9 @@
 //! position, normal, albedo, primitive id, BVH nodes visited), rendered in parallel tiles
 //! beside the colour image. The camera rays go through the BVH as the renderer's do: in
 //! packets of a row's [`PACKET`] neighbouring pixels, or tiles of [`TILE_ROWS`] rows' packets
-//! in scenes the renderer traces so ([`traces_camera_tiles`]), and the heat map leaves out the tiles the
-//! renderer culls (as the renderer does), so that it counts what the renderer's traversal
-//! does.
+//! in scenes the renderer traces so ([`traces_camera_tiles`]), and the heat map leaves out the
+//! tiles the renderer culls (as the renderer does), so that it counts what the renderer's
+//! traversal does.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -174,10 +174,8 @@ fn pixel_value(
 /// packets and tiles.
 const TILE: u32 = 16;
 
+// A tile's blocks are the renderer's packets, tiles and culled tiles (`render_aov`).
 const _: () = assert!(TILE.is_multiple_of(PACKET as u32) && TILE.is_multiple_of(TILE_ROWS as u32));
-
-// A tile's runs are the renderer's packets and culled tiles' rows (`render_aov`).
-const _: () = assert!(TILE.is_multiple_of(PACKET as u32) && TILE.is_multiple_of(crate::render::TILE_ROWS as u32));
 
 #[derive(Clone, Copy)]
 struct Tile {
