@@ -259,51 +259,52 @@ where
     G: Fn(&[Ray]) -> usize + Sync,
 {
     let pass = |f: &(dyn Fn(&[Ray]) -> usize + Sync)| {
+        pool.install(|| rays.par_chunks(4096).map(|c| c.chunks(group).map(f).sum::<usize>()).sum::<usize>())
+    };
+    alternate(rays.len(), || pass(&ours), || pass(&theirs))
+}
+
+/// Rays per second of `ours` and `theirs` over `rays` rays: the fastest of [`REPS`] passes
+/// each, alternating (each runs one pass and returns its hits).
+fn alternate(rays: usize, ours: impl Fn() -> usize, theirs: impl Fn() -> usize) -> (f64, f64) {
+    let time = |pass: &dyn Fn() -> usize| {
         let start = Instant::now();
-        let hits = pool.install(|| rays.par_chunks(4096).map(|c| c.chunks(group).map(f).sum::<usize>()).sum::<usize>());
-        std::hint::black_box(hits);
+        std::hint::black_box(pass());
         start.elapsed()
     };
     let (mut a, mut b) = (Duration::MAX, Duration::MAX);
     for _ in 0..REPS {
-        a = a.min(pass(&ours));
-        b = b.min(pass(&theirs));
+        a = a.min(time(&ours));
+        b = b.min(time(&theirs));
     }
-    let rate = |d: Duration| rays.len() as f64 / d.as_secs_f64() / 1e6;
+    let rate = |d: Duration| rays as f64 / d.as_secs_f64() / 1e6;
     (rate(a), rate(b))
 }
 
-/// Rays per second of `ours` and `theirs` over the 800x800 camera rays `rays` (row after
-/// row) cut into tiles of [`TILE_RUNS`] rows of [`PACKET`] pixels, each function given a
-/// tile's runs; the fastest of [`REPS`] alternating passes each.
+/// Image width of the camera rays ([`common::camera_rays`]).
+const WIDTH: usize = 800;
+
+/// `f`'s hits summed over the tiles of `band` (camera rays of [`TILE_RUNS`] rows of
+/// [`WIDTH`], row after row), each given as its runs of [`PACKET`] pixels.
+fn in_tiles(band: &[Ray], f: &(dyn Fn(&[&[Ray]]) -> usize + Sync)) -> usize {
+    (0..WIDTH)
+        .step_by(PACKET)
+        .map(|x0| f(&std::array::from_fn::<_, TILE_RUNS, _>(|r| &band[WIDTH * r + x0..][..PACKET])))
+        .sum()
+}
+
+/// Rays per second of `ours` and `theirs` over the camera rays `rays` cut into tiles
+/// ([`in_tiles`]), each function given a tile's runs; the fastest of [`REPS`] alternating
+/// passes each.
 fn compare_tiles<F, G>(pool: &rayon::ThreadPool, rays: &[Ray], ours: F, theirs: G) -> (f64, f64)
 where
     F: Fn(&[&[Ray]]) -> usize + Sync,
     G: Fn(&[&[Ray]]) -> usize + Sync,
 {
-    const WIDTH: usize = 800;
-    let tiles = |band: &[Ray], f: &(dyn Fn(&[&[Ray]]) -> usize + Sync)| {
-        (0..WIDTH)
-            .step_by(PACKET)
-            .map(|x0| {
-                let runs: [&[Ray]; TILE_RUNS] = std::array::from_fn(|r| &band[WIDTH * r + x0..][..PACKET]);
-                f(&runs)
-            })
-            .sum::<usize>()
-    };
     let pass = |f: &(dyn Fn(&[&[Ray]]) -> usize + Sync)| {
-        let start = Instant::now();
-        let hits = pool.install(|| rays.par_chunks(WIDTH * TILE_RUNS).map(|band| tiles(band, f)).sum::<usize>());
-        std::hint::black_box(hits);
-        start.elapsed()
+        pool.install(|| rays.par_chunks(WIDTH * TILE_RUNS).map(|band| in_tiles(band, f)).sum::<usize>())
     };
-    let (mut a, mut b) = (Duration::MAX, Duration::MAX);
-    for _ in 0..REPS {
-        a = a.min(pass(&ours));
-        b = b.min(pass(&theirs));
-    }
-    let rate = |d: Duration| rays.len() as f64 / d.as_secs_f64() / 1e6;
-    (rate(a), rate(b))
+    alternate(rays.len(), || pass(&ours), || pass(&theirs))
 }
 
 fn main() {
@@ -370,12 +371,8 @@ fn main() {
             let (op, ep) = compare_groups(&pool, &cam, PACKET, our_packet, |c| emb.intersect8(c));
             let our_tile = |t: &[&[Ray]]| scene.intersect_tile(t).iter().flatten().filter(|h| h.is_some()).count();
             let their_tile = |t: &[&[Ray]]| t.iter().map(|run| emb.intersect8(run)).sum();
-            let in_tiles = cam.chunks(800 * TILE_RUNS).map(|band| {
-                let tile =
-                    |x0: usize| our_tile(&std::array::from_fn::<_, TILE_RUNS, _>(|r| &band[800 * r + x0..][..PACKET]));
-                (0..800).step_by(PACKET).map(tile).sum::<usize>()
-            });
-            assert_eq!(in_tiles.sum::<usize>(), hits(&our_packet), "tiles and packets disagree");
+            let tiled: usize = cam.chunks(WIDTH * TILE_RUNS).map(|band| in_tiles(band, &our_tile)).sum();
+            assert_eq!(tiled, hits(&our_packet), "tiles and packets disagree");
             let (ot, et) = compare_tiles(&pool, &cam, our_tile, their_tile);
             let (oi, ei) =
                 compare(&pool, &inc, |r| scene.intersect(r).is_some(), |r| emb.intersect(r, false).is_some());
