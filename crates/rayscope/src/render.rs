@@ -439,12 +439,18 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                     tally.add(self.fill_missed(pixels, miss));
                     continue;
                 }
-                // Pixels side by side that are at the same sample, seen by a still camera:
-                // their camera rays share the pinhole and go through the BVH together.
-                let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
-                tally.add(if self.packets && same { self.sample_run(pixels) } else { self.sample_alone(pixels) });
+                tally.add(self.sample_run_or_alone(pixels));
             }
         }
+    }
+
+    /// Add the pass's samples to `pixels`, a run of a row: as a packet ([`Pass::sample_run`])
+    /// where they are side by side at the same sample and seen by a still camera (their camera
+    /// rays share the pinhole and go through the BVH together), else pixel by pixel.
+    #[inline(always)]
+    fn sample_run_or_alone<A: PixelAccumulator>(&self, pixels: PixelRun<A>) -> Tally {
+        let same = pixels.counts.iter().all(|c| *c == pixels.counts[0]);
+        if self.packets && same { self.sample_run(pixels) } else { self.sample_alone(pixels) }
     }
 
     /// Add the pass's samples to the band of rows from `y0` (its film `sums` and `counts`,
@@ -488,9 +494,8 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
                     continue;
                 }
                 for (r, (sums, counts)) in runs.iter_mut().flatten().enumerate() {
-                    let same = counts.iter().all(|c| *c == counts[0]);
                     let pixels = PixelRun { x0, y: y0 + r as u32, sums, counts, residuals: &mut *residuals };
-                    tally.add(if same { self.sample_run(pixels) } else { self.sample_alone(pixels) });
+                    tally.add(self.sample_run_or_alone(pixels));
                 }
             }
         }
@@ -534,15 +539,11 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             // A still camera's rays go through the BVH in packets (`sample_run`) or tiles
             // (`sample_tile`): the recorder is told what the packet or tile of this pixel
             // entered for its ray.
-            let (runs, run, lane) = self.camera_tile(x, y, k);
+            let (runs, run, lane) = self.camera_batch(x, y, k);
             let mut ctx = PathContext::new(sampler, rec);
-            let c = if self.tiles {
-                let tile: Vec<&[Ray]> = runs.iter().map(Vec::as_slice).collect();
-                self.integrator.li_in_packet(CameraBatch::Tile(&tile), (run, lane), self.mirrors_ahead, &mut ctx)
-            } else {
-                let batch = CameraBatch::Packet(&runs[run]);
-                self.integrator.li_in_packet(batch, (run, lane), self.mirrors_ahead, &mut ctx)
-            };
+            let tile: Vec<&[Ray]> = runs.iter().map(Vec::as_slice).collect();
+            let batch = if self.tiles { CameraBatch::Tile(&tile) } else { CameraBatch::Packet(tile[run]) };
+            let c = self.integrator.li_in_packet(batch, (run, lane), self.mirrors_ahead, &mut ctx);
             return (c, ctx.counts);
         }
         let mut ctx = PathContext::new(sampler, rec);
@@ -550,14 +551,16 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         (c, ctx.counts)
     }
 
-    /// The camera rays of sample `k` of the tile of pixels [`render_pass`] traces pixel
-    /// `(x, y)` in, run by run (the [`PACKET`] pixels of a row from a multiple of [`PACKET`],
-    /// fewer at the row's end, in the [`TILE_ROWS`] rows from a multiple of [`TILE_ROWS`],
-    /// fewer at the image's end), and the pixel's run and place in it.
-    fn camera_tile(&self, x: u32, y: u32, k: u32) -> (Vec<Vec<Ray>>, usize, usize) {
+    /// The camera rays of sample `k` that [`render_pass`] traces with pixel `(x, y)`'s, run
+    /// by run: its packet (the [`PACKET`] pixels of a row from a multiple of [`PACKET`], fewer
+    /// at the row's end) or, where the pass traces tiles, its tile (those runs of the
+    /// [`TILE_ROWS`] rows from a multiple of [`TILE_ROWS`], fewer at the image's end); and the
+    /// pixel's run and place in it.
+    fn camera_batch(&self, x: u32, y: u32, k: u32) -> (Vec<Vec<Ray>>, usize, usize) {
         let (w, h) = (self.integrator.settings.width, self.integrator.settings.height);
-        let (x0, y0) = (x - x % PACKET as u32, y - y % TILE_ROWS as u32);
-        let (x1, y1) = ((x0 + PACKET as u32).min(w), (y0 + TILE_ROWS as u32).min(h));
+        let rows = if self.tiles { TILE_ROWS as u32 } else { 1 };
+        let (x0, y0) = (x - x % PACKET as u32, y - y % rows);
+        let (x1, y1) = ((x0 + PACKET as u32).min(w), (y0 + rows).min(h));
         let run = |yi: u32| (x0..x1).map(|xi| self.pinhole_ray(xi, yi, &self.sampler(xi, yi, k))).collect();
         ((y0..y1).map(run).collect(), (y - y0) as usize, (x - x0) as usize)
     }
@@ -604,13 +607,12 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let mut total = Tally::default();
         let first = counts[0];
         let last = sample_range(first, self.pass);
+        let x = |i: usize| x0 + i.min(n - 1) as u32;
         for k in first..last {
-            // Two arrays built in place: an array of (sampler, ray) pairs split into them cost a
-            // `memcpy` per packet.
-            let samplers: [PixelSampler; PACKET] =
-                std::array::from_fn(|i| self.sampler(x0 + i.min(n - 1) as u32, y, k));
-            let rays: [Ray; PACKET] =
-                std::array::from_fn(|i| self.pinhole_ray(x0 + i.min(n - 1) as u32, y, &samplers[i]));
+            // Two arrays built in place: an array of (sampler, ray) pairs split into them cost
+            // a `memcpy` per packet.
+            let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
+            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let run = PixelRun { x0, y, sums: &mut *sums, counts: &mut *counts, residuals: &mut *residuals };
             self.shade_run(run, k, &samplers, &rays[..n], &hits, &mut total);
