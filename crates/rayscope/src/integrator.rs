@@ -92,6 +92,11 @@ pub struct Integrator<'a, S: Sky = Background, C: Footprint = NoCone> {
     /// The footprint camera rays start with: [`NoCone`], or a [`RayCone`] when textures are
     /// filtered trilinearly ([`Integrator::with_cones`]).
     camera_cone: C,
+    /// The strata of a light's `settings.light_samples` samples, made once: made in
+    /// [`Integrator::direct`], their square root and `floor` call (a library call at the
+    /// baseline instruction set) were hoisted to the start of every hit's direct lighting,
+    /// point lights' too.
+    light_strata: Strata2,
 }
 
 impl<'a> Integrator<'a> {
@@ -107,7 +112,16 @@ impl<'a, S: Sky> Integrator<'a, S> {
     /// An integrator whose misses return what `sky` says.
     pub fn with_sky(scene: &'a Scene, settings: &'a RenderSettings, sky: S) -> Self {
         let models = scene.materials.iter().any(|m| m.shading_model(settings.shading_model) != ShadingModel::Phong);
-        Integrator { scene, settings, shading: settings.shading_options(), models, sky, camera_cone: NoCone }
+        let light_strata = Strata2::new(settings.light_samples);
+        Integrator {
+            scene,
+            settings,
+            shading: settings.shading_options(),
+            models,
+            sky,
+            camera_cone: NoCone,
+            light_strata,
+        }
     }
 
     /// This integrator with rays that carry a footprint, starting from `camera`'s
@@ -115,8 +129,8 @@ impl<'a, S: Sky> Integrator<'a, S> {
     /// footprint.
     pub fn with_cones(self, camera: &Camera) -> Integrator<'a, S, RayCone> {
         let camera_cone = RayCone::camera(camera.tan_half_fov(), self.settings.height);
-        let Integrator { scene, settings, shading, models, sky, .. } = self;
-        Integrator { scene, settings, shading, models, sky, camera_cone }
+        let Integrator { scene, settings, shading, models, sky, light_strata, .. } = self;
+        Integrator { scene, settings, shading, models, sky, camera_cone, light_strata }
     }
 }
 
@@ -667,7 +681,7 @@ impl<'a, S: Sky, C: Footprint> Integrator<'a, S, C> {
             // The shadow rays the samples will cast: none without shadows.
             let rays = if self.settings.shadows { n } else { 0 };
             sum += self.scene.light_visibility(si, light, rays, &self.shading, |vis| {
-                let strata = Strata2::new(n);
+                let strata = self.light_strata;
                 let mut acc = Color::ZERO;
                 for k in 0..n {
                     let u = if segment {

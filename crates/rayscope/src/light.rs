@@ -137,6 +137,7 @@ impl Light {
     /// The point at parameters `u` in `[0,1]^2` and the light's colour there: the position of
     /// a point light; `lerp(endpoint0, endpoint1, u.x)` on a segment; `v0 + u.x edge01 + u.y
     /// edge02` on a parallelogram; the centre of a sphere.
+    #[inline(always)]
     pub fn point_at(&self, u: Vec2) -> (Vec3A, Color) {
         match *self {
             Light::Point { position, color } => (position.into(), color),
@@ -153,6 +154,7 @@ impl Light {
 
     /// The light shaded as a point light at its centre (with its mean colour there), from
     /// shading point `p`: hard shadows from every kind of light.
+    #[inline(always)]
     pub fn center_sample(&self, p: Vec3A) -> LightSample {
         let (point, color) = self.point_at(Vec2::splat(0.5));
         let to = point - p;
