@@ -2,6 +2,7 @@
 //! model so that every face of rayscope generates the same primary rays.
 
 use serde::{Deserialize, Serialize};
+use wide::f32x8;
 
 use crate::animation::Shutter;
 use crate::geometry::{DirectionRect, Frustum};
@@ -254,6 +255,24 @@ impl RayGenerator {
         Ray::new(self.origin, self.direction(px, py, jitter).normalize())
     }
 
+    /// [`RayGenerator::ray`] of eight pixels (`px[i]`, `py[i]`, `jitter[i]`), the same rays
+    /// bit for bit: each lane takes the scalar code's operations in its order (no fused
+    /// multiply-adds; the length as `(x x + y y) + z z`, as glam's), so the eight square roots
+    /// and 24 divisions of the normalisations go in vector instructions, where one ray at a
+    /// time they queued on the divider (the camera rays' making was 14% of the Cornell box's
+    /// render).
+    #[inline(always)]
+    pub(crate) fn rays8(&self, px: [u32; 8], py: [u32; 8], jitter: [Vec2; 8]) -> [Ray; 8] {
+        let splat = f32x8::splat;
+        let x = f32x8::new(std::array::from_fn(|i| px[i] as f32 + jitter[i].x)) * splat(self.scale.x) - splat(1.0);
+        let y = splat(1.0) - f32x8::new(std::array::from_fn(|i| py[i] as f32 + jitter[i].y)) * splat(self.scale.y);
+        let axis = |a: usize| x * splat(self.right[a]) + y * splat(self.up[a]) + splat(self.forward[a]);
+        let (dx, dy, dz) = (axis(0), axis(1), axis(2));
+        let length = (dx * dx + dy * dy + dz * dz).sqrt();
+        let (dx, dy, dz) = ((dx / length).to_array(), (dy / length).to_array(), (dz / length).to_array());
+        std::array::from_fn(|i| Ray::new(self.origin, Vec3A::new(dx[i], dy[i], dz[i])))
+    }
+
     /// A frustum holding every ray [`RayGenerator::ray`] gives for the pixels of columns
     /// `x[0]..x[1]` and rows `y[0]..y[1]` with a jitter within `reach` pixels of the pixel
     /// centre (the filter's radius), widened by one more pixel on every side: far more than
@@ -340,7 +359,35 @@ impl CameraMotion {
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
+
+    proptest! {
+        /// Eight rays at once are each the ray made alone, bit for bit (origin, direction,
+        /// interval, time): random look-at cameras and fields of view, image sizes from 1
+        /// pixel to 16k, pixels anywhere (beyond the image too) and jitters in `[0, 1]`.
+        #[test]
+        fn eight_rays_at_once_as_one_at_a_time(
+            eye in prop::array::uniform3(-100.0f32..100.0),
+            target in prop::array::uniform3(-1.0f32..1.0),
+            fov in 1.0f32..170.0,
+            size in (1u32..16384, 1u32..16384),
+            px in prop::array::uniform8(0u32..20000),
+            py in prop::array::uniform8(0u32..20000),
+            jitter in prop::array::uniform8(prop::array::uniform2(0.0f32..=1.0)),
+        ) {
+            let desc = CameraDesc::LookAt { eye: Vec3::from_array(eye), target: Vec3::from_array(target), up: Vec3::Y, fov };
+            let g = RayGenerator::new(&Camera::from_desc(&desc), size.0, size.1);
+            let jitter = jitter.map(Vec2::from_array);
+            let eight = g.rays8(px, py, jitter);
+            for i in 0..8 {
+                let one = g.ray(px[i], py[i], jitter[i]);
+                let bits = |r: &Ray| (r.origin.to_array().map(f32::to_bits), r.dir.to_array().map(f32::to_bits), r.t, r.time.to_bits());
+                prop_assert_eq!(bits(&eight[i]), bits(&one), "lane {}", i);
+            }
+        }
+    }
 
     #[test]
     fn default_trackball_looks_at_origin_from_above() {

@@ -319,7 +319,7 @@ fn camera_ray(
     sampler: &PixelSampler,
     through: impl Fn(&RayGenerator, u32, u32, Vec2) -> Ray,
 ) -> Ray {
-    let jitter = Vec2::splat(0.5) + settings.filter.warp(sampler.pixel_offset);
+    let jitter = pixel_jitter(settings, sampler);
     let time = sampler.time;
     let mut ray = match still {
         Some(rays) => through(rays, x, y, jitter),
@@ -327,6 +327,13 @@ fn camera_ray(
     };
     ray.time = time;
     ray
+}
+
+/// Where in its pixel the sample `sampler` draws goes through (0.5 is the centre), by the
+/// settings' pixel filter.
+#[inline(always)]
+fn pixel_jitter(settings: &RenderSettings, sampler: &PixelSampler) -> Vec2 {
+    Vec2::splat(0.5) + settings.filter.warp(sampler.pixel_offset)
 }
 
 /// What every pixel of a pass shares.
@@ -594,6 +601,24 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         camera_ray(self.integrator.settings, self.camera, self.still, x, y, sampler, RayGenerator::ray)
     }
 
+    /// [`Pass::pinhole_ray`] of the pixels `(x(i), y)` of a run, for the samples `samplers`
+    /// draw: the same rays bit for bit, a still camera's made eight at a time
+    /// ([`RayGenerator::rays8`]).
+    #[inline(always)]
+    fn pinhole_run(&self, x: impl Fn(usize) -> u32, y: u32, samplers: &[PixelSampler; PACKET]) -> [Ray; PACKET] {
+        const { assert!(PACKET == 8, "a run's rays are made eight at a time") };
+        let Some(rays) = self.still else {
+            return std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
+        };
+        let settings = self.integrator.settings;
+        let jitter = std::array::from_fn(|i| pixel_jitter(settings, &samplers[i]));
+        let mut rays = rays.rays8(std::array::from_fn(x), [y; PACKET], jitter);
+        for (ray, sampler) in rays.iter_mut().zip(samplers) {
+            ray.time = sampler.time;
+        }
+        rays
+    }
+
     /// Add the pass's samples to `run`, whose pixels are all at the same sample count, seen
     /// by a still camera: each sample's camera rays are traced as one packet, then each
     /// pixel's sample goes on as in [`Pass::sample_pixel`]. Where the scene allows
@@ -612,7 +637,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             // Two arrays built in place: an array of (sampler, ray) pairs split into them cost
             // a `memcpy` per packet.
             let samplers: [PixelSampler; PACKET] = std::array::from_fn(|i| self.sampler(x(i), y, k));
-            let rays: [Ray; PACKET] = std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
+            let rays = self.pinhole_run(x, y, &samplers);
             let hits = self.integrator.scene.intersect_packet(&rays[..n]);
             let run = PixelRun { x0, y, sums: &mut *sums, counts: &mut *counts, residuals: &mut *residuals };
             self.shade_run(run, k, &samplers, &rays[..n], &hits, &mut total);
@@ -641,15 +666,15 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
         let x = |i: usize| x0 + i.min(n - 1) as u32;
         let y = |r: usize| y0 + r.min(m - 1) as u32;
         for k in first..last {
-            // Flat arrays, run after run, each built in place (nested `array::from_fn`s built
-            // each run's array apart and copied it in).
+            // The samplers a flat array, run after run, built in place (nested
+            // `array::from_fn`s built each run's array apart and copied it in); the rays a
+            // run's eight at a time.
             let samplers: [PixelSampler; PACKET * TILE_ROWS] =
                 std::array::from_fn(|j| self.sampler(x(j % PACKET), y(j / PACKET), k));
-            let rays: [Ray; PACKET * TILE_ROWS] =
-                std::array::from_fn(|j| self.pinhole_ray(x(j % PACKET), y(j / PACKET), &samplers[j]));
-            let tile: [&[Ray]; TILE_ROWS] = std::array::from_fn(|r| &rays[r * PACKET..][..n]);
-            let hits = self.integrator.scene.intersect_tile(&tile[..m]);
             let (run_samplers, _) = samplers.as_chunks::<PACKET>();
+            let rays: [[Ray; PACKET]; TILE_ROWS] = std::array::from_fn(|r| self.pinhole_run(x, y(r), &run_samplers[r]));
+            let tile: [&[Ray]; TILE_ROWS] = std::array::from_fn(|r| &rays[r][..n]);
+            let hits = self.integrator.scene.intersect_tile(&tile[..m]);
             for ((r, (sums, counts)), samplers) in runs.iter_mut().flatten().enumerate().zip(run_samplers) {
                 let run = PixelRun { x0, y: y(r), sums, counts, residuals: &mut *residuals };
                 self.shade_run(run, k, samplers, tile[r], &hits[r], &mut total);
