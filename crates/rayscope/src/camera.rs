@@ -259,8 +259,8 @@ impl RayGenerator {
     /// bit for bit: each lane takes the scalar code's operations in its order (no fused
     /// multiply-adds; the length as `(x x + y y) + z z`, as glam's), so the eight square roots
     /// and 24 divisions of the normalisations go in vector instructions, where one ray at a
-    /// time they queued on the divider (the camera rays' making was 14% of the Cornell box's
-    /// render).
+    /// time they queued on the divider (a tenth of the packet loop's samples in the Cornell
+    /// box's profile sat on the store after the division).
     #[inline(always)]
     pub(crate) fn rays8(&self, px: [u32; 8], py: [u32; 8], jitter: [Vec2; 8]) -> [Ray; 8] {
         let splat = f32x8::splat;

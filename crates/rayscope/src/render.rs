@@ -607,12 +607,12 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     #[inline(always)]
     fn pinhole_run(&self, x: impl Fn(usize) -> u32, y: u32, samplers: &[PixelSampler; PACKET]) -> [Ray; PACKET] {
         const { assert!(PACKET == 8, "a run's rays are made eight at a time") };
-        let Some(rays) = self.still else {
+        let Some(generator) = self.still else {
             return std::array::from_fn(|i| self.pinhole_ray(x(i), y, &samplers[i]));
         };
         let settings = self.integrator.settings;
         let jitter = std::array::from_fn(|i| pixel_jitter(settings, &samplers[i]));
-        let mut rays = rays.rays8(std::array::from_fn(x), [y; PACKET], jitter);
+        let mut rays = generator.rays8(std::array::from_fn(x), [y; PACKET], jitter);
         for (ray, sampler) in rays.iter_mut().zip(samplers) {
             ray.time = sampler.time;
         }
