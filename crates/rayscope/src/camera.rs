@@ -261,8 +261,15 @@ impl RayGenerator {
     /// and 24 divisions of the normalisations go in vector instructions, where one ray at a
     /// time they queued on the divider (a tenth of the packet loop's samples in the Cornell
     /// box's profile sat on the store after the division).
+    ///
+    /// Only where glam normalises by dividing by the length (its SSE2 code, which x86-64
+    /// always has): its other back ends (NEON, scalar) multiply by the length's reciprocal,
+    /// which rounds otherwise, and there the rays are made one at a time.
     #[inline(always)]
     pub(crate) fn rays8(&self, px: [u32; 8], py: [u32; 8], jitter: [Vec2; 8]) -> [Ray; 8] {
+        if !cfg!(all(any(target_arch = "x86", target_arch = "x86_64"), target_feature = "sse2")) {
+            return std::array::from_fn(|i| self.ray(px[i], py[i], jitter[i]));
+        }
         let splat = f32x8::splat;
         let x = f32x8::new(std::array::from_fn(|i| px[i] as f32 + jitter[i].x)) * splat(self.scale.x) - splat(1.0);
         let y = splat(1.0) - f32x8::new(std::array::from_fn(|i| py[i] as f32 + jitter[i].y)) * splat(self.scale.y);
