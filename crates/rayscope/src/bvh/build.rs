@@ -213,6 +213,13 @@ struct Split {
     lo: f32,
     scale: f32,
     cost: f32,
+    /// The boxes of the primitives left and right of the plane: unions of the bins' boxes
+    /// on each side, which hold exactly those primitives (the partition bins as the binning
+    /// did). Unions are exact in any order, so these are the boxes a pass over each side's
+    /// primitives would find, up to which of two equal zeros a bound keeps, which no box
+    /// test tells apart.
+    left: Aabb,
+    right: Aabb,
 }
 
 /// Nodes in depth-first order, held as a list of arrays: subtrees built on other threads come
@@ -295,11 +302,10 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
         out.push(leaf);
         return;
     }
-    let Some(mid) = split_node(prims, &b, params) else {
+    let Some(Halves { mid, left: lb, right: rb }) = split_node(prims, &b, params) else {
         out.push(leaf);
         return;
     };
-    let (lb, rb) = (Bounds::of(&prims[..mid]), Bounds::of(&prims[mid..]));
     let here = out.len();
     out.push(BvhNode::new(b.bounds, 0, 0));
     // This node's place in `out.cur`, which keeps it until an `append` moves the array away.
@@ -322,18 +328,46 @@ fn build_node(prims: &mut [BuildPrim], b: Bounds, offset: u32, depth: usize, par
     }
 }
 
-/// Split `prims` (bounds `b`) by the rule of `params`: the number put first (left), or `None`
-/// where the node is to be a leaf.
+/// A node's primitives split in two: the first `mid` go left.
+struct Halves {
+    mid: usize,
+    /// The bounds of the left ones.
+    left: Bounds,
+    /// The bounds of the right ones.
+    right: Bounds,
+}
+
+impl Halves {
+    /// `prims` split at `mid`, each side's bounds found by a pass over it.
+    fn measured(prims: &[BuildPrim], mid: usize) -> Halves {
+        Halves { mid, left: Bounds::of(&prims[..mid]), right: Bounds::of(&prims[mid..]) }
+    }
+}
+
+/// Split `prims` (bounds `b`) by the rule of `params`, or `None` where the node is to be a
+/// leaf.
 #[inline(always)]
-fn split_node(prims: &mut [BuildPrim], b: &Bounds, params: &BuildParams) -> Option<usize> {
+fn split_node(prims: &mut [BuildPrim], b: &Bounds, params: &BuildParams) -> Option<Halves> {
     let n = prims.len();
     if params.split_rule != SplitRule::Sah {
-        return (n > params.block_size.max(1)).then(|| simple_split(prims, b, params.split_rule));
+        return (n > params.block_size.max(1)).then(|| {
+            let mid = simple_split(prims, b, params.split_rule);
+            Halves::measured(prims, mid)
+        });
+    }
+    // A split costs a node visit plus a part that is never negative (unless the costs are),
+    // so a leaf that costs no more than the visit wins whatever the bins would say: a
+    // seventh of the nodes the binning saw on a 1M-triangle mesh (four primitives or fewer).
+    if n <= params.max_leaf_size && leaf_cost(n, params) <= params.traversal_cost && params.intersection_cost >= 0.0 {
+        return None;
     }
     let split = find_split(prims, &b.bounds, &b.centroids, params);
     match split {
         Some(s) if s.cost < leaf_cost(n, params) || n > params.max_leaf_size => Some(partition(prims, &s)),
-        None if n > params.max_leaf_size => Some(median_split(prims, &b.centroids)),
+        None if n > params.max_leaf_size => {
+            let mid = median_split(prims, &b.centroids);
+            Some(Halves::measured(prims, mid))
+        }
         _ => None,
     }
 }
@@ -548,12 +582,15 @@ fn find_split_in<const N: usize>(
     let swept = swept_axes(extent);
     sweep(&bins, nb, params.block_size, |planes| weights[planes.bin] = planes.split_weights(swept));
     let best = first_min(&weights)?;
+    let side = |planes: std::ops::Range<usize>| planes.fold(Aabb::EMPTY, |b, i| b.union(bins.bounds(best.axis, i)));
     Some(Split {
         axis: best.axis,
         bin: best.bin,
         lo: centroids.min[best.axis],
         scale: scale[best.axis],
         cost: sah_cost(best.weight, parent_area, params),
+        left: side(0..best.bin),
+        right: side(best.bin..nb),
     })
 }
 
@@ -695,29 +732,98 @@ pub(super) fn sweep<const N: usize>(bins: &Bins<N>, nb: usize, bs: usize, mut vi
     }
 }
 
-/// Put the primitives left of split `s` first; returns their number.
-fn partition(prims: &mut [BuildPrim], s: &Split) -> usize {
+/// Put the primitives left of split `s` first, and bound both sides: their boxes are the
+/// split's (from the bins), their centroids' boxes grown in the same pass, which saves a pass
+/// over the node's primitives (a tenth of the binary tree's build).
+fn partition(prims: &mut [BuildPrim], s: &Split) -> Halves {
+    // One loop per axis, the axis a constant in each: with the axis a variable, every
+    // primitive's test went through a jump table to its lane.
+    let (mid, [left, right]) = match s.axis {
+        0 => partition_on::<0>(prims, s),
+        1 => partition_on::<1>(prims, s),
+        _ => partition_on::<2>(prims, s),
+    };
+    Halves {
+        mid,
+        left: Bounds { bounds: s.left, centroids: left },
+        right: Bounds { bounds: s.right, centroids: right },
+    }
+}
+
+/// [`partition`] along `AXIS`: the number put left and the boxes of the centroids that went
+/// left and right.
+///
+/// Lomuto's scheme without a branch on the side: every primitive is swapped with the first
+/// one of the right part, which grows or not by the comparison. Primitives arrive in file
+/// order, where the side is a coin toss: Hoare's scheme, which branches on it, mispredicted
+/// for about half of them on every level. The centroid boxes grow without a branch too.
+#[inline(always)]
+fn partition_on<const AXIS: usize>(prims: &mut [BuildPrim], s: &Split) -> (usize, [Aabb; 2]) {
     // The binning's arithmetic: for `rel >= 0` and a whole `s.bin` in 1..bins,
     // `trunc(min(rel, bins - 1)) < s.bin` exactly when `rel < s.bin` (the split axis has
     // extent, so `rel` is never NaN).
     let plane = s.bin as f32;
-    let left_on = |axis: usize| move |p: &BuildPrim| (p.centroid_on(axis) - s.lo) * s.scale < plane;
-    // One loop per axis, the axis a constant in each: with the axis a variable, every
-    // primitive's test went through a jump table to its lane.
-    match s.axis {
-        0 => partition_by(prims, left_on(0)),
-        1 => partition_by(prims, left_on(1)),
-        _ => partition_by(prims, left_on(2)),
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86-64, and these intrinsics only compute on registers.
+        unsafe {
+            // Every lane of the test, as the scalar `(c - lo) * scale < plane` computes lane `AXIS`.
+            let (lo, scale, plane) = (_mm_set1_ps(s.lo), _mm_set1_ps(s.scale), _mm_set1_ps(plane));
+            let half = _mm_set1_ps(0.5);
+            // Or-ed into a centroid, a quiet NaN's bits make it NaN, which `min` and `max` pass
+            // over when it is their first operand (SSE returns the second): the side the
+            // primitive did not go to keeps its box. Where the box takes which of two equal
+            // zeros may differ from a sequential union's; the centroids' box only places the
+            // bins, where the zeros' signs make no difference.
+            let nan = _mm_castsi128_ps(_mm_set1_epi32(0x7fc0_0000));
+            let inf = _mm_set1_ps(f32::INFINITY);
+            let neg_inf = _mm_set1_ps(f32::NEG_INFINITY);
+            let (mut lmin, mut lmax, mut rmin, mut rmax) = (inf, neg_inf, inf, neg_inf);
+            let mut mid = 0;
+            for i in 0..prims.len() {
+                let p = prims[i];
+                // [`BuildPrim::centroid`]'s arithmetic.
+                let c = _mm_mul_ps(half, _mm_add_ps(p.lo.into(), p.hi.into()));
+                let lt = _mm_cmplt_ps(_mm_mul_ps(_mm_sub_ps(c, lo), scale), plane);
+                let goes = match AXIS {
+                    0 => _mm_shuffle_ps::<0x00>(lt, lt),
+                    1 => _mm_shuffle_ps::<0x55>(lt, lt),
+                    _ => _mm_shuffle_ps::<0xaa>(lt, lt),
+                };
+                let (to_left, to_right) = (_mm_or_ps(c, _mm_andnot_ps(goes, nan)), _mm_or_ps(c, _mm_and_ps(goes, nan)));
+                lmin = _mm_min_ps(to_left, lmin);
+                lmax = _mm_max_ps(to_left, lmax);
+                rmin = _mm_min_ps(to_right, rmin);
+                rmax = _mm_max_ps(to_right, rmax);
+                prims.swap(i, mid);
+                mid += (_mm_movemask_ps(goes) & 1) as usize;
+            }
+            let aabb = |min: __m128, max: __m128| Aabb { min: Vec3A::from(min), max: Vec3A::from(max) };
+            (mid, [aabb(lmin, lmax), aabb(rmin, rmax)])
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let (mut left, mut right) = (Aabb::EMPTY, Aabb::EMPTY);
+        let mut mid = 0;
+        for i in 0..prims.len() {
+            let goes = (prims[i].centroid_on(AXIS) - s.lo) * s.scale < plane;
+            let c = prims[i].centroid();
+            let (m, inf) = (glam::BVec3A::splat(goes), Vec3A::INFINITY);
+            left = Aabb { min: left.min.min(Vec3A::select(m, c, inf)), max: left.max.max(Vec3A::select(m, c, -inf)) };
+            right =
+                Aabb { min: right.min.min(Vec3A::select(m, inf, c)), max: right.max.max(Vec3A::select(m, -inf, c)) };
+            prims.swap(i, mid);
+            mid += usize::from(goes);
+        }
+        (mid, [left, right])
     }
 }
 
 /// Put the primitives that `goes_left` first; returns their number.
-#[inline(always)]
 fn partition_by(prims: &mut [BuildPrim], goes_left: impl Fn(&BuildPrim) -> bool) -> usize {
-    // Lomuto's scheme without a branch on the side: every primitive is swapped with the
-    // first one of the right part, which grows or not by the comparison. Primitives arrive
-    // in file order, where the side is a coin toss: Hoare's scheme, which branches on it,
-    // mispredicted for about half of them on every level.
+    // Lomuto's scheme without a branch on the side, as in [`partition_on`].
     let mut mid = 0;
     for i in 0..prims.len() {
         let left = goes_left(&prims[i]);
