@@ -72,6 +72,7 @@ mod error;
 mod filter;
 mod integrator;
 mod io;
+mod pages;
 mod sky;
 
 pub use error::{Error, Result};

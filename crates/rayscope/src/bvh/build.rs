@@ -6,6 +6,7 @@ use rayon::join;
 use super::{Bvh, BvhNode, MAX_DEPTH};
 use crate::geometry::Aabb;
 use crate::math::{Vec3A, Vec4};
+use crate::pages;
 
 /// How the BVH is built.
 #[derive(Clone, Debug)]
@@ -180,13 +181,15 @@ impl Bvh {
     pub fn build_from(count: usize, bounds: impl Fn(usize) -> Aabb + Sync, params: &BuildParams) -> Bvh {
         use rayon::prelude::*;
         let prim = |i: usize| BuildPrim::new(bounds(i), i as u32);
-        // Made in place (an exact-size collect), then the rare unusable boxes dropped (looked
-        // for on every core: `retain` goes through every primitive on one).
-        let mut prims: Vec<BuildPrim> = if count > PARALLEL_PASS {
-            (0..count).into_par_iter().map(prim).collect()
+        // Made in place (an exact-size collect into room advised for huge pages), then the rare
+        // unusable boxes dropped (looked for on every core: `retain` goes through every
+        // primitive on one).
+        let mut prims: Vec<BuildPrim> = pages::with_capacity(count);
+        if count > PARALLEL_PASS {
+            (0..count).into_par_iter().map(prim).collect_into_vec(&mut prims);
         } else {
-            (0..count).map(prim).collect()
-        };
+            prims.extend((0..count).map(prim));
+        }
         let usable = |p: &BuildPrim| p.bounds().is_finite() && !p.bounds().is_empty();
         if !prims.par_iter().all(usable) {
             prims.retain(usable);
@@ -198,7 +201,7 @@ impl Bvh {
         let b = Bounds::of(&prims);
         build_node(&mut prims, b, 0, 0, params, &mut parts);
         let nodes = parts.into_vec();
-        let mut prim_indices = Vec::with_capacity(prims.len());
+        let mut prim_indices = pages::with_capacity(prims.len());
         prims.par_iter().map(BuildPrim::index).collect_into_vec(&mut prim_indices);
         Bvh { nodes, prim_indices }
     }
@@ -272,7 +275,7 @@ impl Nodes {
     /// joined. The arrays are copied on every core, each into its place.
     fn into_vec(self) -> Vec<BvhNode> {
         use rayon::prelude::*;
-        let mut all: Vec<BvhNode> = bytemuck::zeroed_vec(self.len());
+        let mut all: Vec<BvhNode> = pages::zeroed(self.len());
         // Each array with its place in `all` and the index of its first node there.
         let (mut rest, mut first) = (&mut all[..], 0);
         let mut parts = Vec::with_capacity(self.done.len() + 1);

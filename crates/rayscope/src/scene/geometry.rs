@@ -8,6 +8,7 @@ use crate::bvh::{BuildParams, Bvh, NoObserver, Occluders, PACKET, Primitives, TI
 use crate::geometry::{Aabb, PrimHit, Sphere, Triangle};
 use crate::math::Vec3A;
 use crate::motion::MotionPath;
+use crate::pages;
 use crate::ray::Ray;
 
 /// A primitive in the form intersection wants.
@@ -208,7 +209,7 @@ impl Geometry {
         let shape = |p: &PrimRef| still_shape(meshes, spheres, p);
         geometry.bvh = Bvh::build_from(count, |i| shape(&prim(i as u32)).bounds(), params);
         let mut first = Vec::with_capacity(meshes.len());
-        geometry.vertices = Vec::with_capacity(vertex_count);
+        geometry.vertices = pages::with_capacity(vertex_count);
         for m in meshes {
             first.push(geometry.vertices.len() as u32);
             // Moved as `still_shape` moves them, so that the corners are its corners.
@@ -440,7 +441,13 @@ const PARALLEL_PASS: usize = 1 << 14;
 
 /// `f` over `items`, on all threads for large scenes.
 fn map<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
-    if items.len() > PARALLEL_PASS { items.par_iter().map(f).collect() } else { items.iter().map(f).collect() }
+    let mut out = pages::with_capacity(items.len());
+    if items.len() > PARALLEL_PASS {
+        items.par_iter().map(f).collect_into_vec(&mut out);
+    } else {
+        out.extend(items.iter().map(f));
+    }
+    out
 }
 
 /// Primitive `p` as a shape, translated by `offset`.

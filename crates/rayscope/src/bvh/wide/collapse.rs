@@ -17,6 +17,7 @@ use bytemuck::Zeroable;
 use wide::f32x8;
 
 use crate::bvh::{Bvh, MAX_DEPTH, Primitives};
+use crate::pages;
 
 /// Binary trees with more nodes than this collapse on several threads.
 const PARALLEL_COLLAPSE: usize = 1 << 13;
@@ -183,7 +184,7 @@ impl<const W: usize> Plan<W> {
     fn new<P: Primitives + Sync + ?Sized>(bin: &Bvh, prims: &P) -> Self {
         // Zeroed memory (the decisions' threads touch it first), where writing empty decisions
         // took a pass on one thread.
-        let mut nodes = bytemuck::zeroed_vec(bin.nodes.len());
+        let mut nodes = pages::zeroed(bin.nodes.len());
         Self::subtree(bin, prims, 0, &mut nodes);
         Plan { nodes }
     }
@@ -516,9 +517,9 @@ where
     /// written twice, the first time on one thread (120 ms of a 4M-triangle mesh's 300 ms
     /// collapse on two cores).
     fn alloc(&mut self, c: Counts) {
-        self.nodes = bytemuck::zeroed_vec(c.nodes);
-        self.blocks = bytemuck::zeroed_vec(c.blocks);
-        self.ranges = bytemuck::zeroed_vec(c.ranges);
+        self.nodes = pages::zeroed(c.nodes);
+        self.blocks = pages::zeroed(c.blocks);
+        self.ranges = pages::zeroed(c.ranges);
     }
 
     /// The whole tree's arrays, to write.
