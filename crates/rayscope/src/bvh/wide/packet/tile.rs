@@ -234,10 +234,10 @@ where
     ) {
         let nodes = Q::new(node_cpu, tile);
         // Runs beyond the tile's have no rays (and no say in `t_far`).
-        let mut state = [const { PacketRays::NONE }; TILE_RUNS];
-        for ((s, p), rays) in state.iter_mut().zip(packets).zip(runs) {
-            s.start(p, rays.len());
-        }
+        let mut state: [PacketRays; TILE_RUNS] = std::array::from_fn(|r| match (packets.get(r), runs.get(r)) {
+            (Some(p), Some(rays)) => PacketRays::new(p, rays.len()),
+            _ => PacketRays::none(),
+        });
         // The tile's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = tile.t_far;
         let all = packets.iter().enumerate().fold(0u64, |m, (r, p)| m | u64::from(p.active) << (8 * r));
