@@ -458,6 +458,7 @@ where
     ) {
         let nodes = Q::new(node_cpu, p);
         let mut state = PacketRays::new(p, rays.len());
+        let mut setups = NO_SETUPS;
         // The packet's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = p.t_far;
 
@@ -465,7 +466,16 @@ where
         let mut current = Entry { child: ChildRef::ROOT, lanes: p.active, near: 0.0 };
         loop {
             if current.child.is_leaf() {
-                self.packet_leaf::<T, P, O>(leaf_cpu, current.child, current.lanes, rays, p, prims, obs, &mut state);
+                self.packet_leaf::<T, P, O>(
+                    leaf_cpu,
+                    current.child,
+                    current.lanes,
+                    rays,
+                    p,
+                    prims,
+                    obs,
+                    (&mut state, &mut setups),
+                );
                 t_far = state.t_far();
             } else {
                 let node = &self.nodes[current.child.node_index() as usize];
@@ -518,44 +528,47 @@ where
 }
 
 /// What a packet's traversal keeps of each ray: the end of its interval (its closest hit's
-/// distance once it has one), the hit, and its leaf-test set-up, made when the ray first
-/// reaches a leaf (rays that miss everything never need one).
+/// distance once it has one), the hit, and which of its rays have their leaf-test set-ups
+/// made (in the [`LeafSetups`] beside it).
 pub(super) struct PacketRays {
     t_max: [f32; PACKET],
     hits: PacketHits,
-    singles: [std::mem::MaybeUninit<RayLanes>; PACKET],
-    /// The lanes whose `singles` are made.
+    /// The lanes whose leaf set-ups are made.
     made: u32,
     /// Rays in the packet.
     n: usize,
 }
 
+/// The leaf-test set-ups of a packet's rays, each made when its ray first reaches a leaf
+/// (rays that miss everything never need one); [`PacketRays::made`] says which are. Kept
+/// apart from [`PacketRays`], which is copied when made (an array of them for a tile): a
+/// struct that held them was copied whole, uninitialised set-ups and all (a `memcpy` of 592
+/// bytes a packet, eight a tile).
+pub(super) type LeafSetups = [std::mem::MaybeUninit<RayLanes>; PACKET];
+
+/// Leaf set-ups none of which is made yet.
+pub(super) const NO_SETUPS: LeafSetups = [const { std::mem::MaybeUninit::uninit() }; PACKET];
+
 impl PacketRays {
+    /// No rays (for a tile's runs beyond its packets, or to be [`PacketRays::start`]ed).
+    pub(super) const NONE: PacketRays =
+        PacketRays { t_max: [f32::NEG_INFINITY; PACKET], hits: [None; PACKET], made: 0, n: 0 };
+
     /// The rays of packet `p` of `n` rays, before the traversal.
-    ///
-    /// Made field by field, the leaf set-ups left as they are: built from a constant (an
-    /// array of them too), the whole of it was copied, uninitialised set-ups and all (a
-    /// `memcpy` of 592 bytes a packet, eight a tile; 1-4% of the teapot's packets of eight).
     #[inline(always)]
     pub(super) fn new(p: &Packet, n: usize) -> PacketRays {
-        PacketRays::with(p.t_end.to_array(), n)
+        let mut rays = PacketRays::NONE;
+        rays.start(p, n);
+        rays
     }
 
-    /// No rays: a tile's runs beyond its packets.
+    /// Make these the rays of packet `p` of `n` rays, before the traversal.
     #[inline(always)]
-    pub(super) fn none() -> PacketRays {
-        PacketRays::with([f32::NEG_INFINITY; PACKET], 0)
-    }
-
-    #[inline(always)]
-    fn with(t_max: [f32; PACKET], n: usize) -> PacketRays {
-        PacketRays {
-            t_max,
-            hits: [None; PACKET],
-            singles: [const { std::mem::MaybeUninit::uninit() }; PACKET],
-            made: 0,
-            n,
-        }
+    pub(super) fn start(&mut self, p: &Packet, n: usize) {
+        self.t_max = p.t_end.to_array();
+        self.hits = [None; PACKET];
+        self.made = 0;
+        self.n = n;
     }
 
     /// The farthest interval end over the packet's rays.
@@ -582,9 +595,9 @@ where
         p: &Packet,
         prims: &P,
         obs: &mut [O; PACKET],
-        state: &mut PacketRays,
+        (state, singles): (&mut PacketRays, &mut LeafSetups),
     ) {
-        let PacketRays { t_max, hits, singles, made, .. } = state;
+        let PacketRays { t_max, hits, made, .. } = state;
         for lane in lanes_of(lanes) {
             if *made & 1 << lane == 0 {
                 // From the inverse direction the packet has: no division.

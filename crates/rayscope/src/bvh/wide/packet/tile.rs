@@ -23,7 +23,7 @@ use super::super::simd::{Avx2, Avx512};
 use super::super::stack::Stack;
 use super::super::traverse::descend;
 use super::super::{ChildRef, Simd, WideBvh};
-use super::{PACKET, Packet, PacketHits, PacketNodeTest, PacketRays, PacketWidth, greater, lesser};
+use super::{NO_SETUPS, PACKET, Packet, PacketHits, PacketNodeTest, PacketRays, PacketWidth, greater, lesser};
 use crate::bvh::{NoObserver, Primitives, QueryKind, TraversalObserver};
 use crate::ray::Ray;
 
@@ -234,10 +234,11 @@ where
     ) {
         let nodes = Q::new(node_cpu, tile);
         // Runs beyond the tile's have no rays (and no say in `t_far`).
-        let mut state: [PacketRays; TILE_RUNS] = std::array::from_fn(|r| match (packets.get(r), runs.get(r)) {
-            (Some(p), Some(rays)) => PacketRays::new(p, rays.len()),
-            _ => PacketRays::none(),
-        });
+        let mut state = [const { PacketRays::NONE }; TILE_RUNS];
+        for ((s, p), rays) in state.iter_mut().zip(packets).zip(runs) {
+            s.start(p, rays.len());
+        }
+        let mut setups = [NO_SETUPS; TILE_RUNS];
         // The tile's farthest interval end, for the inner nodes' test and the stack.
         let mut t_far = tile.t_far;
         let all = packets.iter().enumerate().fold(0u64, |m, (r, p)| m | u64::from(p.active) << (8 * r));
@@ -256,7 +257,7 @@ where
                             p,
                             prims,
                             &mut obs[r],
-                            &mut state[r],
+                            (&mut state[r], &mut setups[r]),
                         );
                     }
                 }
