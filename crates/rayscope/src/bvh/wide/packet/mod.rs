@@ -540,7 +540,7 @@ pub(super) struct PacketRays {
 }
 
 /// The leaf-test set-ups of a packet's rays, each made when its ray first reaches a leaf
-/// (rays that miss everything never need one); [`PacketRays::made`] says which are. Kept
+/// (rays that miss everything never need one); the state's `made` mask says which are. Kept
 /// apart from [`PacketRays`], which is copied when made (an array of them for a tile): a
 /// struct that held them was copied whole, uninitialised set-ups and all (a `memcpy` of 592
 /// bytes a packet, eight a tile).
@@ -583,7 +583,9 @@ where
     Lanes<W>: NodeWidth<W> + PacketWidth<W>,
 {
     /// The rays `lanes` of packet `p` (made of `rays`) in leaf `leaf`: each ray's closest hit
-    /// in `state` updated by the leaf's primitives (`T` the leaf test, on `leaf_cpu`).
+    /// in `state` updated by the leaf's primitives (`T` the leaf test, on `leaf_cpu`). `singles`
+    /// are the leaf set-ups of the same packet's rays, those made so far as `state.made` says
+    /// (the two go together from the start of the traversal).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn packet_leaf<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
@@ -607,7 +609,8 @@ where
             }
             obs[lane].entered_leaf(leaf);
         }
-        // SAFETY: every lane of the entry was written above, or earlier as `made` records.
+        // SAFETY: every lane of the entry was written above, or earlier as `made` records
+        // (`singles` have been this packet's set-ups since its state was started, `made` 0).
         let single = |lane: usize| unsafe { singles[lane].assume_init_ref() };
         let lead = lanes.trailing_zeros() as usize;
         let shared = leaf.is_packed()
