@@ -474,7 +474,7 @@ where
                     p,
                     prims,
                     obs,
-                    (&mut state, &mut setups),
+                    (&mut state, &mut setups, &mut *hits),
                 );
                 t_far = state.t_far();
             } else {
@@ -514,10 +514,7 @@ where
                 }
             }
             loop {
-                let Some(e) = stack.pop() else {
-                    *hits = state.hits;
-                    return;
-                };
+                let Some(e) = stack.pop() else { return };
                 if e.near <= t_far {
                     current = e;
                     break;
@@ -528,11 +525,13 @@ where
 }
 
 /// What a packet's traversal keeps of each ray: the end of its interval (its closest hit's
-/// distance once it has one), the hit, and which of its rays have their leaf-test set-ups
-/// made (in the [`LeafSetups`] beside it).
+/// distance once it has one), and which of its rays have their leaf-test set-ups made (in the
+/// [`LeafSetups`] beside it). The hits themselves go straight to the caller's array: kept
+/// here, they were copied out at the end, a 64-byte load of the lanes' just-stored fields that
+/// waited for the stores to retire (store forwarding fails across stores), and the caller's
+/// reads of the copy waited again (3% of the teapot's packets of eight).
 pub(super) struct PacketRays {
     t_max: [f32; PACKET],
-    hits: PacketHits,
     /// The lanes whose leaf set-ups are made.
     made: u32,
     /// Rays in the packet.
@@ -551,8 +550,7 @@ pub(super) const NO_SETUPS: LeafSetups = [const { std::mem::MaybeUninit::uninit(
 
 impl PacketRays {
     /// No rays (for a tile's runs beyond its packets, or to be [`PacketRays::start`]ed).
-    pub(super) const NONE: PacketRays =
-        PacketRays { t_max: [f32::NEG_INFINITY; PACKET], hits: [None; PACKET], made: 0, n: 0 };
+    pub(super) const NONE: PacketRays = PacketRays { t_max: [f32::NEG_INFINITY; PACKET], made: 0, n: 0 };
 
     /// The rays of packet `p` of `n` rays, before the traversal.
     #[inline(always)]
@@ -566,7 +564,6 @@ impl PacketRays {
     #[inline(always)]
     pub(super) fn start(&mut self, p: &Packet, n: usize) {
         self.t_max = p.t_end.to_array();
-        self.hits = [None; PACKET];
         self.made = 0;
         self.n = n;
     }
@@ -583,9 +580,10 @@ where
     Lanes<W>: NodeWidth<W> + PacketWidth<W>,
 {
     /// The rays `lanes` of packet `p` (made of `rays`) in leaf `leaf`: each ray's closest hit
-    /// in `state` updated by the leaf's primitives (`T` the leaf test, on `leaf_cpu`). `singles`
-    /// are the leaf set-ups of the same packet's rays, those made so far as `state.made` says
-    /// (the two go together from the start of the traversal).
+    /// in `hits` (its distance in `state`) updated by the leaf's primitives (`T` the leaf
+    /// test, on `leaf_cpu`). `singles` are the leaf set-ups of the same packet's rays, those
+    /// made so far as `state.made` says (the three go together from the start of the
+    /// traversal, the hits `None` then).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn packet_leaf<T: NodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
@@ -597,9 +595,9 @@ where
         p: &Packet,
         prims: &P,
         obs: &mut [O; PACKET],
-        (state, singles): (&mut PacketRays, &mut LeafSetups),
+        (state, singles, hits): (&mut PacketRays, &mut LeafSetups, &mut PacketHits),
     ) {
-        let PacketRays { t_max, hits, made, .. } = state;
+        let PacketRays { t_max, made, .. } = state;
         for lane in lanes_of(lanes) {
             if *made & 1 << lane == 0 {
                 // From the inverse direction the packet has: no division.

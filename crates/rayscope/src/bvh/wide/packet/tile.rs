@@ -257,7 +257,7 @@ where
                             p,
                             prims,
                             &mut obs[r],
-                            (&mut state[r], &mut setups[r]),
+                            (&mut state[r], &mut setups[r], &mut hits[r]),
                         );
                     }
                 }
@@ -303,12 +303,7 @@ where
                 }
             }
             loop {
-                let Some(e) = stack.pop() else {
-                    for (hits, s) in hits.iter_mut().zip(&state) {
-                        *hits = s.hits;
-                    }
-                    return;
-                };
+                let Some(e) = stack.pop() else { return };
                 if e.near <= t_far {
                     current = e;
                     break;
