@@ -386,7 +386,9 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// Add the pass's samples to every pixel of `film`: bands of whole rows, rendered in
     /// place (each task owns its slice of the film, so there is no intermediate buffer to
     /// fill and copy; every pixel's value depends only on the pixel, so the split does not
-    /// change the image). Tiles not started when `cancel` is set are skipped.
+    /// change the image). Tiles not started when `cancel` is set are skipped. Sums left
+    /// stale by a cleared film ([`FilmSlices::stale`]) are zeroed band by band, each just
+    /// before its band adds to them (a skipped band's too).
     fn bands<A: PixelAccumulator>(
         &self,
         film: FilmSlices<'_, A>,
@@ -402,6 +404,9 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
             .zip(film.counts.par_chunks_mut(band))
             .enumerate()
             .map(|(b, (sums, counts))| {
+                if film.stale {
+                    sums.fill(A::default());
+                }
                 if cancel.load(Ordering::Relaxed) {
                     return Band { tally: Tally::default(), residuals: Vec::new(), complete: false };
                 }
@@ -1141,6 +1146,28 @@ mod tests {
             assert!(out.complete, "{name}");
             assert_eq!(film_bits(&out.film), film_bits(&fresh), "{name}");
             assert!(out.film == fresh, "{name}");
+        }
+    }
+
+    /// A reused film's old sums, left by its clear to the next pass's bands, are gone
+    /// after a pass cancelled midway: the pixels the pass rendered hold what a fresh render
+    /// gives them, the others no samples and zero sums (zeroed by the bands the pass skipped).
+    #[test]
+    fn cancelled_renders_leave_no_old_sums_in_reused_films() {
+        let scene = Scene::from_desc(&builtin::scene_desc("cornell-box").unwrap(), &LoadContext::default()).unwrap();
+        let settings = RenderSettings { width: 61, height: 47, ..RenderSettings::default() };
+        let fresh = render(&scene, &settings, &|_| {}).film;
+        let earlier = render(&scene, &settings, &|_| {}).film;
+        let stopped = AtomicBool::new(false);
+        let stop_midway = |p: RenderProgress| stopped.store(p.done * 2 >= p.total, Ordering::Relaxed);
+        let out = render_reusing(&scene, &settings, &stopped, &stop_midway, Some(earlier));
+        assert!(!out.complete);
+        let counts = out.film.counts();
+        assert!(counts.contains(&0) && counts.contains(&1));
+        let fresh_sums: Vec<_> = fresh.sums().collect();
+        for (i, (sum, n)) in out.film.sums().zip(counts).enumerate() {
+            let expected = if *n == 0 { [0.0; 3] } else { fresh_sums[i] };
+            assert_eq!(sum.map(f64::to_bits), expected.map(f64::to_bits), "pixel {i}, {n} samples");
         }
     }
 

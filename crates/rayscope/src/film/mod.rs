@@ -6,7 +6,7 @@ pub mod exact_sum;
 
 use crate::math::Color;
 use exact_sum::ExactSum;
-use rayon::iter::{IndexedParallelIterator, ParallelIterator};
+use rayon::iter::ParallelIterator;
 use rayon::slice::ParallelSliceMut;
 
 /// A pixel's sums of samples, red, green and blue, in `f64`.
@@ -59,8 +59,11 @@ enum Sums {
     /// `f32` holds exactly (12 bytes a pixel, where `f64` sums take 24: the allocation, the
     /// page faults and the writes of a one-sample render's film are 16 bytes a pixel with the
     /// count, not 28). `filled`: some pixel may hold a sample (the next sample to any pixel
-    /// needs `f64` sums, and [`Film::widen`] makes them).
-    Single { sums: Vec<[f32; 3]>, filled: bool },
+    /// needs `f64` sums, and [`Film::widen`] makes them). `stale`: the film was cleared
+    /// ([`Film::clear`]) without zeroing the sums, which hold an earlier render's values until
+    /// the next pass zeroes them band by band (read as zeros meanwhile: `stale` implies not
+    /// `filled`).
+    Single { sums: Vec<[f32; 3]>, filled: bool, stale: bool },
     /// `f64` running sums, checked for exactness as samples are added.
     Exact(Vec<PixelSum>),
 }
@@ -68,13 +71,14 @@ enum Sums {
 impl Sums {
     /// Zero sums for `n` pixels.
     fn zero(n: usize) -> Sums {
-        Sums::Single { sums: vec![[0.0; 3]; n], filled: false }
+        Sums::Single { sums: vec![[0.0; 3]; n], filled: false, stale: false }
     }
 
     /// Pixel `i`'s running sum.
     #[inline]
     fn get(&self, i: usize) -> PixelSum {
         match self {
+            Sums::Single { stale: true, .. } => [0.0; 3],
             Sums::Single { sums, .. } => sums[i].map(f64::from),
             Sums::Exact(sums) => sums[i],
         }
@@ -95,12 +99,15 @@ pub(crate) struct FilmSlices<'a, S> {
     pub sums: &'a mut [S],
     /// Per-pixel sample counts.
     pub counts: &'a mut [u32],
+    /// Whether `sums` hold an earlier render's values, which each band of the pass zeroes
+    /// before it adds (or, cancelled, instead): a cleared film's `f32` sums ([`Film::clear`]).
+    pub stale: bool,
 }
 
 /// How the renderer adds a sample to a pixel's sum in a film's storage: the `f64` sums add it
 /// exactly ([`add_sample`], or [`add_first_sample`] for a pixel's first), the `f32` sums of a
 /// film's first pass store it (see [`Sums`]).
-pub(crate) trait PixelAccumulator: Send {
+pub(crate) trait PixelAccumulator: Send + Copy + Default {
     /// Add sample `c` (finite: see [`finite_or_black`]), the pixel's first (its sample 0,
     /// whose sum is zero).
     fn add_first(&mut self, c: Color);
@@ -300,11 +307,13 @@ impl Film {
             self.widen();
         }
         match &mut self.sums {
-            Sums::Single { sums, filled } => {
+            Sums::Single { sums, filled, stale } => {
                 *filled = true;
-                PassSlices::Single(FilmSlices { sums, counts: &mut self.count })
+                // The pass zeroes every band's sums, those it renders and those it skips.
+                let stale = std::mem::take(stale);
+                PassSlices::Single(FilmSlices { sums, counts: &mut self.count, stale })
             }
-            Sums::Exact(sums) => PassSlices::Exact(FilmSlices { sums, counts: &mut self.count }),
+            Sums::Exact(sums) => PassSlices::Exact(FilmSlices { sums, counts: &mut self.count, stale: false }),
         }
     }
 
@@ -312,8 +321,8 @@ impl Film {
     /// no sample yet gets zeroed memory, as `Film::new` had it before, not a conversion).
     fn widen(&mut self) -> &mut [PixelSum] {
         match &self.sums {
-            Sums::Single { filled: false, sums } => self.sums = Sums::Exact(vec![[0.0; 3]; sums.len()]),
-            Sums::Single { filled: true, sums } => {
+            Sums::Single { filled: false, sums, .. } => self.sums = Sums::Exact(vec![[0.0; 3]; sums.len()]),
+            Sums::Single { filled: true, sums, .. } => {
                 self.sums = Sums::Exact(sums.iter().map(|s| s.map(f64::from)).collect());
             }
             Sums::Exact(_) => {}
@@ -374,23 +383,22 @@ impl Film {
     }
 
     /// Forget every sample: [`Film::new`]'s film of this size. `f32` sums (which a one-sample
-    /// render leaves) are zeroed in place, `f64` ones replaced. Renders one after another
+    /// render leaves) are left to the next pass, which zeroes each band's before it adds to
+    /// them (in cache, where a clear of the whole film wrote 12 bytes a pixel to memory that the
+    /// pass then read back: 1-2.5% of a one-sample render, `render --repeat`); `f64` sums are
+    /// replaced. The counts are zeroed here (a part's pass sets them first). Renders one after another
     /// (`render --repeat`, an animation's frames, the viewer's frames while the camera moves)
     /// then write to pages they have touched, where a new film's first writes fault in fresh
     /// zeroed pages from the kernel: some 650 faults and 5-6 ms of kernel time a render at
     /// 800x800 (the Cornell box on two threads, `perf stat`; see BENCHMARKS.md).
     pub fn clear(&mut self) {
         match &mut self.sums {
-            Sums::Single { sums, filled } => {
-                // On every thread: 16 bytes a pixel, 10 MB at 800x800, which one thread took
-                // 0.9 ms to zero while the others waited for the render to start.
+            Sums::Single { filled, stale, .. } => {
+                // On every thread: one thread took 0.9 ms to zero the counts and the sums (16
+                // bytes a pixel, 10 MB at 800x800) while the others waited for the render.
                 const CHUNK: usize = 1 << 14;
-                let counts = self.count.par_chunks_mut(CHUNK);
-                sums.par_chunks_mut(CHUNK).zip(counts).for_each(|(sums, counts)| {
-                    sums.fill([0.0; 3]);
-                    counts.fill(0);
-                });
-                *filled = false;
+                self.count.par_chunks_mut(CHUNK).for_each(|counts| counts.fill(0));
+                *stale |= std::mem::take(filled);
             }
             Sums::Exact(_) => {
                 self.sums = Sums::zero(self.count.len());
@@ -619,6 +627,34 @@ mod tests {
         assert!(matches!(film.pass_slices(1), PassSlices::Exact(_)));
         assert_eq!(film, exact);
         assert!(matches!(Film::new(1, 1).pass_slices(2), PassSlices::Exact(_)));
+    }
+
+    /// A cleared film reads as a new one while its `f32` sums still hold the old values (its
+    /// next pass zeroes them band by band), and hands the pass those sums marked stale, however
+    /// often it was cleared; a film no pass has been given sums to fill has none to zero.
+    #[test]
+    fn a_cleared_film_reads_as_new_until_its_pass_zeroes_it() {
+        let mut film = Film::new(2, 1);
+        match film.pass_slices(1) {
+            PassSlices::Single(s) => {
+                assert!(!s.stale, "a new film's sums are zero");
+                s.sums[1].add_first(Color::new(0.25, 0.5, 1.0));
+                s.counts[1] = 1;
+            }
+            PassSlices::Exact(_) => panic!("a fresh film's one-sample pass adds to f32 sums"),
+        }
+        film.clear();
+        assert_eq!(film, Film::new(2, 1));
+        assert!(film.sums().all(|s| s.iter().all(|v| v.to_bits() == 0)));
+        assert!(matches!(&film.sums, Sums::Single { sums, stale: true, .. } if sums[1] == [0.25, 0.5, 1.0]));
+        film.clear();
+        match film.pass_slices(1) {
+            PassSlices::Single(s) => assert!(s.stale, "the old sums are the pass's to zero"),
+            PassSlices::Exact(_) => panic!("a cleared film's one-sample pass adds to f32 sums"),
+        }
+        let mut new = Film::new(2, 1);
+        new.clear();
+        assert!(matches!(new.pass_slices(1), PassSlices::Single(s) if !s.stale), "nothing to zero");
     }
 
     #[test]
