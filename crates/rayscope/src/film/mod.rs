@@ -499,15 +499,21 @@ pub fn finite_or_black(c: Color, dropped: &mut u64) -> Color {
     let xy = u64::from(c.x.to_bits()) | (u64::from(c.y.to_bits()) << 32);
     let z = u64::from(c.z.to_bits());
     let inf_or_nan = (((xy & EXP) + CARRY) | ((z & EXP) + CARRY)) & SIGN;
-    if inf_or_nan == 0 { c } else { not_finite(dropped) }
+    if inf_or_nan == 0 {
+        return c;
+    }
+    // Black made here, not returned by the cold call: a colour returned from it came back
+    // through the stack, where the common path's joined it, and a sum's `0.0 + c` then loaded
+    // `y, z` as a pair across both stores and waited as above.
+    count_dropped(dropped);
+    Color::ZERO
 }
 
 /// The rare path of [`finite_or_black`], out of the sample loop.
 #[cold]
 #[inline(never)]
-fn not_finite(dropped: &mut u64) -> Color {
+fn count_dropped(dropped: &mut u64) {
     *dropped += 1;
-    Color::ZERO
 }
 
 /// A float image of 1 or 3 channels, rows from the top, channels interleaved: colour or an
