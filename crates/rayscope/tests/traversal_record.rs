@@ -87,9 +87,8 @@ fn camera_ray_records_what_the_renderers_packet_entered_and_the_heat_map_counts(
             // the tile's frustum test looked at.
             let count = heat.data[(y * s.width + x) as usize];
             let culling = TileCulling::of(&scene, &s, &scene.camera_motion());
-            let tile = culling.map(|c| (c.tile(x, y), c.test(c.tile(x, y))));
-            match tile {
-                Some((tile, test)) if !test.may_hit => {
+            match culling.and_then(|c| c.culled_tile(x, y)) {
+                Some((tile, test)) => {
                     culled += 1;
                     assert!(camera.hit.is_none(), "{} ({x}, {y}): a culled pixel's ray hits", scene.name);
                     let share = (width as u32 * test.nodes) as f32 / tile.pixels() as f32;

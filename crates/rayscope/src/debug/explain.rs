@@ -411,8 +411,8 @@ impl fmt::Display for Explanation {
             let s = if nodes == 1 { "" } else { "s" };
             writeln!(
                 f,
-                "not traced by the renderer: the frustum of its tile (columns {}..{}, rows {}..{}) meets no leaf \
-                 box of the BVH ({nodes} node{s} tested), so the tile was filled with the background; traced here, \
+                "not traced by the renderer: the frustum of its tiles (columns {}..{}, rows {}..{}) meets no leaf \
+                 box of the BVH ({nodes} node{s} tested), so they were filled with the background; traced here, \
                  its rays miss",
                 x[0], x[1], y[0], y[1]
             )?;

@@ -41,8 +41,9 @@ pub struct PixelTrace {
     pub culled: Option<CulledTile>,
 }
 
-/// A tile of pixels whose camera rays the renderer did not trace: their frustum meets no box
-/// of the BVH ([`TileCulling`]).
+/// Pixels whose camera rays the renderer did not trace, culled by one frustum test: their
+/// frustum meets no box of the BVH ([`TileCulling`]). A tile, or its whole row of tiles where
+/// the row's frustum was tested first and missed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct CulledTile {
     /// Its columns, `x[0]..x[1]`.

@@ -383,10 +383,10 @@ impl Film {
     }
 
     /// Forget every sample: [`Film::new`]'s film of this size. `f32` sums (which a one-sample
-    /// render leaves) are left to the next pass, which zeroes each band's before it adds to
-    /// them (in cache, where a clear of the whole film wrote 12 bytes a pixel to memory that the
-    /// pass then read back: 1-2.5% of a one-sample render, `render --repeat`); `f64` sums are
-    /// replaced. The counts are zeroed here (a part's pass sets them first). Renders one after another
+    /// render leaves) are left to the next pass, which zeroes each band's just before it adds
+    /// to them, in cache (a clear of the whole film, 12 bytes a pixel, cost 1.5-3% of a
+    /// one-sample render); `f64` sums are replaced. The counts are zeroed here (a part's pass
+    /// sets them first). Renders one after another
     /// (`render --repeat`, an animation's frames, the viewer's frames while the camera moves)
     /// then write to pages they have touched, where a new film's first writes fault in fresh
     /// zeroed pages from the kernel: some 650 faults and 5-6 ms of kernel time a render at
