@@ -136,14 +136,14 @@ impl<'a> TileCulling<'a> {
         (!test.may_hit).then_some((tile, test))
     }
 
-    /// Whether the renderer culls each tile of rows `y[0]..y[1]` (as [`TileCulling::tiles`]
-    /// orders them): all of a row whose frustum meets no leaf box, else those whose own does
-    /// not (the one rule of [`TileCulling::culled_tile`]).
-    fn culled(&self, y: [u32; 2]) -> impl Iterator<Item = bool> + '_ {
+    /// Each tile of rows `y[0]..y[1]` (as [`TileCulling::tiles`] orders them) and whether the
+    /// renderer culls it: all of a row whose frustum meets no leaf box, else those whose own
+    /// does not (the one rule of [`TileCulling::culled_tile`]).
+    fn culled(&self, y: [u32; 2]) -> impl Iterator<Item = (Tile, bool)> + '_ {
         (y[0]..y[1]).step_by(TILE_ROWS).flat_map(move |ty| {
             let row = self.row_of(self.tile(0, ty));
             let all = !self.test(row).may_hit;
-            self.tiles([ty, row.y[1]]).map(move |t| all || !self.test(t).may_hit)
+            self.tiles([ty, row.y[1]]).map(move |t| (t, all || !self.test(t).may_hit))
         })
     }
 
@@ -156,8 +156,7 @@ impl<'a> TileCulling<'a> {
 
     /// Pixels of the image in tiles the renderer culls (whose camera rays it does not trace).
     pub fn culled_pixels(&self) -> u64 {
-        let y = [0, self.size[1]];
-        self.tiles(y).zip(self.culled(y)).filter(|(_, culled)| *culled).map(|(t, _)| u64::from(t.pixels())).sum()
+        self.culled([0, self.size[1]]).filter(|(_, culled)| *culled).map(|(t, _)| u64::from(t.pixels())).sum()
     }
 }
 
@@ -564,7 +563,7 @@ impl<'a, S: Sky, C: Footprint> Pass<'a, S, C> {
     /// pass does not cull).
     fn culled_tiles(&self, y0: usize, rows: usize) -> Vec<bool> {
         let Some((culling, _)) = &self.cull else { return Vec::new() };
-        culling.culled([y0 as u32, (y0 + rows) as u32]).collect()
+        culling.culled([y0 as u32, (y0 + rows) as u32]).map(|(_, culled)| culled).collect()
     }
 
     /// Trace sample `k` of pixel `(x, y)`: the one function every image, and the debugger,

@@ -443,7 +443,9 @@ where
     }
 
     /// The packet traversal of `p` (made of `rays`), with `T` for each ray's leaf tests and
-    /// `Q` for the inner nodes (made with `leaf_cpu` and `node_cpu`).
+    /// `Q` for the inner nodes (made with `leaf_cpu` and `node_cpu`): each ray's closest hit
+    /// goes into `hits`, which the caller gives all `None` (the traversal writes a lane only
+    /// where it finds a hit).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn packet_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(

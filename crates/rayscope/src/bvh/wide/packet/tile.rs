@@ -218,7 +218,8 @@ where
     }
 
     /// The tile traversal of `packets` (made of `runs`; `tile` bounds them all for the inner
-    /// nodes), with `T` for the rays' leaf tests and `Q` for the nodes.
+    /// nodes), with `T` for the rays' leaf tests and `Q` for the nodes: the closest hits go
+    /// into `hits`, all `None` as the caller gives them (see [`WideBvh::packet_with`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn tile_with<T: NodeTest<W>, Q: PacketNodeTest<W>, P: Primitives + ?Sized, O: TraversalObserver>(
