@@ -6,7 +6,7 @@
 //! the CPU has the features its intrinsics need: that is the proof each `unsafe` block here
 //! cites.
 
-use super::kernels::{NodeTest, PairHits, RayLanes, Row, SlabOrigin, edges_f64_lanes, planes};
+use super::kernels::{NodeTest, PairHits, RayLanes, Row, SlabOrigin, edges_f64_lanes, plane_rows, planes};
 use super::simd::{Avx2, Avx512};
 use super::{Tri4, WideNode};
 use crate::geometry::TriRay;
@@ -44,39 +44,46 @@ impl NodeTest<8> for Avx2Node8 {
         unsafe { Avx2Node8 { inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
     }
 
+    type Planes = [std::arch::x86_64::__m256; 6];
+
     #[inline(always)]
-    fn test<const FORWARD: bool>(&self, n: &WideNode<8>, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+    fn planes(&self, n: &WideNode<8>) -> Self::Planes {
         use std::arch::x86_64::*;
-        // SAFETY: the CPU has AVX2 and FMA (`self` was made with their token); nodes are 64-byte aligned and each row
-        // is 32 bytes, as the aligned loads need; `d` holds eight floats.
+        // SAFETY: the CPU has AVX2 and FMA (`self` was made with its token); nodes are 64-byte
+        // aligned and each row is 32 bytes, as the aligned loads need.
+        unsafe { plane_rows(&self.near, &self.far).map(|r| _mm256_load_ps(n.bounds[r as usize].as_ptr())) }
+    }
+
+    #[inline(always)]
+    fn test_planes<const FORWARD: bool>(&self, p: &Self::Planes, t_min: f32, t_max: f32) -> ([f32; 8], u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the CPU has AVX2 and FMA (`self` was made with their token); `d` holds eight floats.
         unsafe {
             // The same operations, in the same order, as the portable test: identical results.
-            let t = |row: Row, a: usize, oinv: &[__m256; 3]| {
-                _mm256_fmsub_ps(_mm256_load_ps(n.bounds[row as usize].as_ptr()), self.inv[a], oinv[a])
-            };
+            let t = |plane: usize, a: usize, oinv: &[__m256; 3]| _mm256_fmsub_ps(p[plane], self.inv[a], oinv[a]);
             let t_max = _mm256_set1_ps(t_max.min(f32::MAX));
             let mut d = [0.0f32; 8];
             if FORWARD {
                 let i = _mm256_castps_si256;
                 let near = _mm256_max_epi32(
-                    _mm256_max_epi32(i(t(self.near[0], 0, &self.oinv_near)), i(t(self.near[1], 1, &self.oinv_near))),
-                    _mm256_max_epi32(i(t(self.near[2], 2, &self.oinv_near)), i(_mm256_set1_ps(t_min + 0.0))),
+                    _mm256_max_epi32(i(t(0, 0, &self.oinv_near)), i(t(1, 1, &self.oinv_near))),
+                    _mm256_max_epi32(i(t(2, 2, &self.oinv_near)), i(_mm256_set1_ps(t_min + 0.0))),
                 );
                 let far = _mm256_min_epi32(
-                    _mm256_min_epi32(i(t(self.far[0], 0, &self.oinv_far)), i(t(self.far[1], 1, &self.oinv_far))),
-                    _mm256_min_epi32(i(t(self.far[2], 2, &self.oinv_far)), i(t_max)),
+                    _mm256_min_epi32(i(t(3, 0, &self.oinv_far)), i(t(4, 1, &self.oinv_far))),
+                    _mm256_min_epi32(i(t(5, 2, &self.oinv_far)), i(t_max)),
                 );
                 let miss = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(near, far))) as u32;
                 _mm256_storeu_ps(d.as_mut_ptr(), _mm256_castsi256_ps(near));
                 return (d, !miss & 0xff);
             }
             let near = _mm256_max_ps(
-                _mm256_max_ps(t(self.near[0], 0, &self.oinv_near), t(self.near[1], 1, &self.oinv_near)),
-                _mm256_max_ps(t(self.near[2], 2, &self.oinv_near), _mm256_set1_ps(t_min.max(f32::MIN))),
+                _mm256_max_ps(t(0, 0, &self.oinv_near), t(1, 1, &self.oinv_near)),
+                _mm256_max_ps(t(2, 2, &self.oinv_near), _mm256_set1_ps(t_min.max(f32::MIN))),
             );
             let far = _mm256_min_ps(
-                _mm256_min_ps(t(self.far[0], 0, &self.oinv_far), t(self.far[1], 1, &self.oinv_far)),
-                _mm256_min_ps(t(self.far[2], 2, &self.oinv_far), t_max),
+                _mm256_min_ps(t(3, 0, &self.oinv_far), t(4, 1, &self.oinv_far)),
+                _mm256_min_ps(t(5, 2, &self.oinv_far), t_max),
             );
             _mm256_storeu_ps(d.as_mut_ptr(), near);
             (d, _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32)
@@ -251,38 +258,45 @@ impl NodeTest<16> for Avx512Node16 {
         unsafe { Avx512Node16 { inv: splat!(inv), oinv_near: splat!(o.near), oinv_far: splat!(o.far), near, far } }
     }
 
+    type Planes = [std::arch::x86_64::__m512; 6];
+
     #[inline(always)]
-    fn test<const FORWARD: bool>(&self, n: &WideNode<16>, t_min: f32, t_max: f32) -> ([f32; 16], u32) {
+    fn planes(&self, n: &WideNode<16>) -> Self::Planes {
         use std::arch::x86_64::*;
-        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); nodes are 64-byte aligned and each row is
-        // 64 bytes, as the aligned loads need; `d` holds sixteen floats.
+        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); nodes are 64-byte
+        // aligned and each row is 64 bytes, as the aligned loads need.
+        unsafe { plane_rows(&self.near, &self.far).map(|r| _mm512_load_ps(n.bounds[r as usize].as_ptr())) }
+    }
+
+    #[inline(always)]
+    fn test_planes<const FORWARD: bool>(&self, p: &Self::Planes, t_min: f32, t_max: f32) -> ([f32; 16], u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: the CPU has AVX-512 F (`self` was made with its token); `d` holds sixteen floats.
         unsafe {
             // The portable test's operations, in its order: identical results.
-            let t = |row: Row, a: usize, oinv: &[__m512; 3]| {
-                _mm512_fmsub_ps(_mm512_load_ps(n.bounds[row as usize].as_ptr()), self.inv[a], oinv[a])
-            };
+            let t = |plane: usize, a: usize, oinv: &[__m512; 3]| _mm512_fmsub_ps(p[plane], self.inv[a], oinv[a]);
             let t_max = _mm512_set1_ps(t_max.min(f32::MAX));
             let mut d = [0.0f32; 16];
             if FORWARD {
                 let i = _mm512_castps_si512;
                 let near = _mm512_max_epi32(
-                    _mm512_max_epi32(i(t(self.near[0], 0, &self.oinv_near)), i(t(self.near[1], 1, &self.oinv_near))),
-                    _mm512_max_epi32(i(t(self.near[2], 2, &self.oinv_near)), i(_mm512_set1_ps(t_min + 0.0))),
+                    _mm512_max_epi32(i(t(0, 0, &self.oinv_near)), i(t(1, 1, &self.oinv_near))),
+                    _mm512_max_epi32(i(t(2, 2, &self.oinv_near)), i(_mm512_set1_ps(t_min + 0.0))),
                 );
                 let far = _mm512_min_epi32(
-                    _mm512_min_epi32(i(t(self.far[0], 0, &self.oinv_far)), i(t(self.far[1], 1, &self.oinv_far))),
-                    _mm512_min_epi32(i(t(self.far[2], 2, &self.oinv_far)), i(t_max)),
+                    _mm512_min_epi32(i(t(3, 0, &self.oinv_far)), i(t(4, 1, &self.oinv_far))),
+                    _mm512_min_epi32(i(t(5, 2, &self.oinv_far)), i(t_max)),
                 );
                 _mm512_storeu_ps(d.as_mut_ptr(), _mm512_castsi512_ps(near));
                 return (d, u32::from(_mm512_cmple_epi32_mask(near, far)));
             }
             let near = _mm512_max_ps(
-                _mm512_max_ps(t(self.near[0], 0, &self.oinv_near), t(self.near[1], 1, &self.oinv_near)),
-                _mm512_max_ps(t(self.near[2], 2, &self.oinv_near), _mm512_set1_ps(t_min.max(f32::MIN))),
+                _mm512_max_ps(t(0, 0, &self.oinv_near), t(1, 1, &self.oinv_near)),
+                _mm512_max_ps(t(2, 2, &self.oinv_near), _mm512_set1_ps(t_min.max(f32::MIN))),
             );
             let far = _mm512_min_ps(
-                _mm512_min_ps(t(self.far[0], 0, &self.oinv_far), t(self.far[1], 1, &self.oinv_far)),
-                _mm512_min_ps(t(self.far[2], 2, &self.oinv_far), t_max),
+                _mm512_min_ps(t(3, 0, &self.oinv_far), t(4, 1, &self.oinv_far)),
+                _mm512_min_ps(t(5, 2, &self.oinv_far), t_max),
             );
             _mm512_storeu_ps(d.as_mut_ptr(), near);
             (d, u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far)))

@@ -139,6 +139,12 @@ pub(super) fn planes(inv: Vec3A) -> ([Row; 3], [Row; 3]) {
     PLANES[inv.cmplt(Vec3A::ZERO).bitmask() as usize]
 }
 
+/// The rows of [`NodeTest::Planes`]: the entry planes' `near`, then the exit planes' `far`.
+#[inline(always)]
+pub(super) fn plane_rows(near: &[Row; 3], far: &[Row; 3]) -> [Row; 6] {
+    [near[0], near[1], near[2], far[0], far[1], far[2]]
+}
+
 /// Bound on the slab test's rounding, relative to `(|o| + reach) * |inv|` per axis (see
 /// [`SlabOrigin`]): four times the unit roundoff 2^-24, where the analysis needs three.
 pub(super) const SLAB_ROUNDING: f32 = 1.0 / (1 << 22) as f32;
@@ -184,7 +190,23 @@ pub trait NodeTest<const W: usize>: Sized {
     /// `[t_min, t_max]`, by the slab test of the module documentation. `FORWARD` says that
     /// `t_min >= 0` (distances then compare in integer order); the traversals choose it once
     /// per ray, as a branch per node measured 8% slower.
-    fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32);
+    #[inline(always)]
+    fn test<const FORWARD: bool>(&self, n: &WideNode<W>, t_min: f32, t_max: f32) -> ([f32; W], u32) {
+        self.test_planes::<FORWARD>(&self.planes(n), t_min, t_max)
+    }
+
+    /// A node's six rows of planes as this ray's test takes them: the three its direction
+    /// enters boxes by, then the three it leaves by, in the test's registers. Rays whose
+    /// directions have the same signs share them, so a packet of such rays loads a node's
+    /// planes once for all of them ([`NodeTest::test_planes`]).
+    type Planes: Copy;
+
+    /// `n`'s planes in this ray's order (see [`NodeTest::Planes`]).
+    fn planes(&self, n: &WideNode<W>) -> Self::Planes;
+
+    /// [`NodeTest::test`] of the node whose planes `p` are, loaded by [`NodeTest::planes`] of
+    /// this ray or of one whose direction has the same signs: the same results, bit for bit.
+    fn test_planes<const FORWARD: bool>(&self, p: &Self::Planes, t_min: f32, t_max: f32) -> ([f32; W], u32);
 
     /// The lanes of `near` (entry distances from [`NodeTest::test`]) greater than `x`, and
     /// those equal to it, as bit masks (a NaN lane is neither): the traversal's ordering of a
@@ -367,14 +389,19 @@ macro_rules! portable_node_test {
                 (ma | mb << 4, cat(ta, tb), cat(ua, ub), cat(va, vb))
             }
 
+            type Planes = [$v; 6];
+
             #[inline(always)]
-            fn test<const FORWARD: bool>(&self, n: &WideNode<$w>, t_min: f32, t_max: f32) -> ([f32; $w], u32) {
-                let t = |row: Row, a: usize, oinv: &[$v; 3]| {
-                    fused_mul_sub(<$v>::new(n.bounds[row as usize]), self.inv[a], oinv[a])
-                };
+            fn planes(&self, n: &WideNode<$w>) -> [$v; 6] {
+                plane_rows(&self.near, &self.far).map(|r| <$v>::new(n.bounds[r as usize]))
+            }
+
+            #[inline(always)]
+            fn test_planes<const FORWARD: bool>(&self, p: &[$v; 6], t_min: f32, t_max: f32) -> ([f32; $w], u32) {
+                let t = |plane: usize, a: usize, oinv: &[$v; 3]| fused_mul_sub(p[plane], self.inv[a], oinv[a]);
                 let (on, of) = (&self.oinv_near, &self.oinv_far);
-                let near = [t(self.near[0], 0, on), t(self.near[1], 1, on), t(self.near[2], 2, on)];
-                let far = [t(self.far[0], 0, of), t(self.far[1], 1, of), t(self.far[2], 2, of)];
+                let near = [t(0, 0, on), t(1, 1, on), t(2, 2, on)];
+                let far = [t(3, 0, of), t(4, 1, of), t(5, 2, of)];
                 // Finite ends keep empty slots (boxes at +inf) out, whatever the direction.
                 let t_max = <$v>::splat(t_max.min(f32::MAX));
                 let (near, mask) = if FORWARD {
