@@ -103,9 +103,16 @@ impl NodeTest<8> for Avx2Node8 {
 
     type Corners = PairCorners256;
 
+    type Rows = PairCorners256;
+
     #[inline(always)]
-    fn pair_corners(cpu: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4) -> PairCorners256 {
-        pair_corners_avx2(cpu, &r.tri, a, b)
+    fn pair_rows(cpu: Avx2, axes: [usize; 3], a: &Tri4, b: &Tri4) -> PairCorners256 {
+        pair_rows_avx2(cpu, axes, a, b)
+    }
+
+    #[inline(always)]
+    fn translated(cpu: Avx2, rows: &PairCorners256, origin: [f32; 3]) -> PairCorners256 {
+        translated_avx2(cpu, rows, origin)
     }
 
     #[inline(always)]
@@ -124,13 +131,20 @@ pub(super) fn intersect_pair_avx2(cpu: Avx2, r: &RayLanes, a: &Tri4, b: &Tri4, t
 
 /// Two blocks' corners for one ray in 256-bit registers ([`super::kernels::Corners4`] of
 /// both, block `a` in the low lanes): per vertex, the rows along the ray's x, y and z axes,
-/// translated by its origin.
+/// translated by its origin (or not yet, as [`pair_rows_avx2`] gives them).
 #[derive(Clone, Copy)]
 pub struct PairCorners256([[std::arch::x86_64::__m256; 3]; 3]);
 
 /// The corners of blocks `a` and `b` for a ray whose triangle set-up is `tri`.
 #[inline(always)]
-pub(super) fn pair_corners_avx2(_: Avx2, tri: &TriRay, a: &Tri4, b: &Tri4) -> PairCorners256 {
+pub(super) fn pair_corners_avx2(cpu: Avx2, tri: &TriRay, a: &Tri4, b: &Tri4) -> PairCorners256 {
+    translated_avx2(cpu, &pair_rows_avx2(cpu, tri.axes, a, b), tri.origin)
+}
+
+/// The vertex rows of blocks `a` and `b` along `axes` (a ray's [`TriRay::axes`]),
+/// untranslated.
+#[inline(always)]
+pub(super) fn pair_rows_avx2(_: Avx2, [kx, ky, kz]: [usize; 3], a: &Tri4, b: &Tri4) -> PairCorners256 {
     use std::arch::x86_64::*;
     // SAFETY: the CPU has AVX2 (the token says so); the loads read 16 bytes from rows of 4
     // floats.
@@ -143,17 +157,27 @@ pub(super) fn pair_corners_avx2(_: Avx2, tri: &TriRay, a: &Tri4, b: &Tri4) -> Pa
                 _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(_mm_loadu_ps($x.as_ptr())), _mm_loadu_ps($y.as_ptr()))
             };
         }
-        let [kx, ky, kz] = tri.axes;
-        let (ox, oy, oz) =
-            (_mm256_set1_ps(tri.origin[0]), _mm256_set1_ps(tri.origin[1]), _mm256_set1_ps(tri.origin[2]));
-        // A vertex row of both blocks, permuted (a choice of rows) and translated.
-        macro_rules! translated {
+        // A vertex row of both blocks, permuted (a choice of rows).
+        macro_rules! rows {
             ($v:ident) => {
-                [
-                    _mm256_sub_ps(load!(a.$v[kx], b.$v[kx]), ox),
-                    _mm256_sub_ps(load!(a.$v[ky], b.$v[ky]), oy),
-                    _mm256_sub_ps(load!(a.$v[kz], b.$v[kz]), oz),
-                ]
+                [load!(a.$v[kx], b.$v[kx]), load!(a.$v[ky], b.$v[ky]), load!(a.$v[kz], b.$v[kz])]
+            };
+        }
+        PairCorners256([rows!(v0), rows!(v1), rows!(v2)])
+    }
+}
+
+/// `rows` ([`pair_rows_avx2`]) translated by `origin` (a ray's [`TriRay::origin`]).
+#[inline(always)]
+pub(super) fn translated_avx2(_: Avx2, rows: &PairCorners256, origin: [f32; 3]) -> PairCorners256 {
+    use std::arch::x86_64::*;
+    // SAFETY: the CPU has AVX2 (the token says so).
+    unsafe {
+        let o = [_mm256_set1_ps(origin[0]), _mm256_set1_ps(origin[1]), _mm256_set1_ps(origin[2])];
+        let [v0, v1, v2] = rows.0;
+        macro_rules! translated {
+            ($v:expr) => {
+                [_mm256_sub_ps($v[0], o[0]), _mm256_sub_ps($v[1], o[1]), _mm256_sub_ps($v[2], o[2])]
             };
         }
         PairCorners256([translated!(v0), translated!(v1), translated!(v2)])
@@ -315,9 +339,16 @@ impl NodeTest<16> for Avx512Node16 {
 
     type Corners = PairCorners256;
 
+    type Rows = PairCorners256;
+
     #[inline(always)]
-    fn pair_corners(cpu: Avx512, r: &RayLanes, a: &Tri4, b: &Tri4) -> PairCorners256 {
-        pair_corners_avx2(cpu.into(), &r.tri, a, b)
+    fn pair_rows(cpu: Avx512, axes: [usize; 3], a: &Tri4, b: &Tri4) -> PairCorners256 {
+        pair_rows_avx2(cpu.into(), axes, a, b)
+    }
+
+    #[inline(always)]
+    fn translated(cpu: Avx512, rows: &PairCorners256, origin: [f32; 3]) -> PairCorners256 {
+        translated_avx2(cpu.into(), rows, origin)
     }
 
     #[inline(always)]

@@ -224,7 +224,22 @@ pub trait NodeTest<const W: usize>: Sized {
     type Corners: Copy;
 
     /// The corners of blocks `a` and `b` for ray `r` (see [`NodeTest::Corners`]).
-    fn pair_corners(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4) -> Self::Corners;
+    #[inline(always)]
+    fn pair_corners(cpu: Self::Cpu, r: &RayLanes, a: &Tri4, b: &Tri4) -> Self::Corners {
+        Self::translated(cpu, &Self::pair_rows(cpu, r.tri.axes, a, b), r.tri.origin)
+    }
+
+    /// Two packed blocks' vertex rows along a ray's axes ([`TriRay::axes`]), not yet
+    /// translated by its origin: what rays with the same axes share whatever their origins
+    /// (shadow rays from neighbouring points), each then translating them by its own.
+    type Rows: Copy;
+
+    /// The rows of blocks `a` and `b` along `axes` (see [`NodeTest::Rows`]).
+    fn pair_rows(cpu: Self::Cpu, axes: [usize; 3], a: &Tri4, b: &Tri4) -> Self::Rows;
+
+    /// The corners `rows` make for a ray whose origin along its axes is `origin`
+    /// ([`TriRay::origin`]): [`NodeTest::pair_corners`]'s, bit for bit.
+    fn translated(cpu: Self::Cpu, rows: &Self::Rows, origin: [f32; 3]) -> Self::Corners;
 
     /// [`NodeTest::intersect_pair`] from the pair's corners `c`, made for `r` or for a ray
     /// with the same origin and axes ([`TriRay::origin`], [`TriRay::axes`]): the same bits.
@@ -376,9 +391,16 @@ macro_rules! portable_node_test {
 
             type Corners = [Corners4; 2];
 
+            type Rows = [Corners4; 2];
+
             #[inline(always)]
-            fn pair_corners(_: Baseline, r: &RayLanes, a: &Tri4, b: &Tri4) -> [Corners4; 2] {
-                [a.corners(&r.tri), b.corners(&r.tri)]
+            fn pair_rows(_: Baseline, axes: [usize; 3], a: &Tri4, b: &Tri4) -> [Corners4; 2] {
+                [a.rows(axes), b.rows(axes)]
+            }
+
+            #[inline(always)]
+            fn translated(_: Baseline, rows: &[Corners4; 2], origin: [f32; 3]) -> [Corners4; 2] {
+                rows.map(|r| Tri4::translated(&r, origin))
             }
 
             #[inline(always)]
@@ -433,11 +455,23 @@ impl Tri4 {
     /// The block's corners for a ray whose triangle set-up is `tri` ([`Corners4`]).
     #[inline(always)]
     pub(super) fn corners(&self, tri: &TriRay) -> Corners4 {
-        let [kx, ky, kz] = tri.axes;
-        let [ox, oy, oz] = tri.origin.map(f32x4::splat);
+        Tri4::translated(&self.rows(tri.axes), tri.origin)
+    }
+
+    /// The block's vertex rows along `axes` (a ray's [`TriRay::axes`]), untranslated.
+    #[inline(always)]
+    pub(super) fn rows(&self, [kx, ky, kz]: [usize; 3]) -> Corners4 {
         let l = |a: &[f32; 4]| f32x4::new(*a);
-        let translated = |v: &[[f32; 4]; 3]| [l(&v[kx]) - ox, l(&v[ky]) - oy, l(&v[kz]) - oz];
-        [translated(&self.v0), translated(&self.v1), translated(&self.v2)]
+        let rows = |v: &[[f32; 4]; 3]| [l(&v[kx]), l(&v[ky]), l(&v[kz])];
+        [rows(&self.v0), rows(&self.v1), rows(&self.v2)]
+    }
+
+    /// Rows ([`Tri4::rows`]) translated by `origin` (a ray's [`TriRay::origin`]): the
+    /// block's [`Corners4`] for the ray.
+    #[inline(always)]
+    pub(super) fn translated(rows: &Corners4, origin: [f32; 3]) -> Corners4 {
+        let [ox, oy, oz] = origin.map(f32x4::splat);
+        rows.map(|[x, y, z]| [x - ox, y - oy, z - oz])
     }
 
     /// [`Tri4::intersect`] from the block's corners `c` ([`Tri4::corners`] for `r`, or for a

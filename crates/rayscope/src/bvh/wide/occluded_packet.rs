@@ -12,8 +12,11 @@
 //! 448-byte node per step) are paid once per packet. Where the rays' directions have one sign
 //! per axis (nearly every packet of shadow rays), they enter and leave boxes by the same
 //! planes: a node's six rows are loaded once and each ray's test goes on from them in
-//! registers ([`NodeTest::test_planes`], the same arithmetic). A ray leaves the packet as soon
-//! as it is blocked.
+//! registers ([`NodeTest::test_planes`], the same arithmetic). Likewise in a leaf, each pair of
+//! blocks is loaded once along the rays' axes (the dominant components of their directions,
+//! nearly always shared) and each ray translates it by its own origin
+//! ([`NodeTest::pair_rows`], [`NodeTest::translated`]). A ray leaves the packet as soon as it
+//! is blocked.
 //!
 //! (Testing the inner nodes once for the packet instead, by interval arithmetic over the
 //! rays' origins and directions as camera packets do, entered a third more nodes and paid a
@@ -187,12 +190,22 @@ where
                 }
                 if current.is_packed() {
                     let mut open = entering;
+                    // SAFETY: every ray of `entering` is in `active`, whose lanes were all
+                    // written above.
+                    let axes = unsafe { lanes[entering.trailing_zeros() as usize].assume_init_ref() }.tri.axes;
                     for (a, b, pair_lanes) in self.block_pairs(current) {
+                        // The pair's rows along the first ray's axes, loaded once for the rays
+                        // that share them (nearly all), each translating them by its origin.
+                        let rows = T::pair_rows(cpu, axes, a, b);
                         for r in lanes_of(open) {
-                            // SAFETY: `r` is in `entering`, within `active`, whose lanes were
-                            // all written above.
+                            // SAFETY: as for `axes`.
                             let lanes = unsafe { lanes[r].assume_init_ref() };
-                            if T::intersect_pair(cpu, lanes, a, b, t_min[r], t_max[r]).0 & pair_lanes != 0 {
+                            let corners = if lanes.tri.axes == axes {
+                                T::translated(cpu, &rows, lanes.tri.origin)
+                            } else {
+                                T::pair_corners(cpu, lanes, a, b)
+                            };
+                            if T::intersect_corners(cpu, lanes, &corners, t_min[r], t_max[r]).0 & pair_lanes != 0 {
                                 open &= !(1 << r);
                             }
                         }
