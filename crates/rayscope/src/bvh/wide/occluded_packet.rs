@@ -40,10 +40,45 @@ use crate::geometry::aabb::safe_inv_dir;
 use crate::math::Vec3A;
 use crate::ray::Ray;
 
-/// The rays (bits) whose child mask in `masks` has child `i`.
-#[inline(always)]
-fn rays_into(masks: &[u32; PACKET], i: usize) -> u32 {
-    masks.iter().enumerate().fold(0, |acc, (r, m)| acc | ((m >> i) & 1) << r)
+/// Bit `i` of a byte moved to bit `8 i` of a word, for every byte: a row of the packet's
+/// ray-by-child bit matrix spread so that its transpose is an OR of shifts ([`ByChild`]).
+const SPREAD: [u64; 256] = {
+    let mut t = [0u64; 256];
+    let mut x = 0;
+    while x < 256 {
+        let mut i = 0;
+        while i < 8 {
+            t[x] |= ((x as u64 >> i) & 1) << (8 * i);
+            i += 1;
+        }
+        x += 1;
+    }
+    t
+};
+
+/// For each of a node's (up to 16) children, the rays of the packet whose test hit it: byte
+/// `i % 8` of word `i / 8` holds child `i`'s rays. Each ray's child mask goes in as two
+/// table lookups and shifts, where reading a child's rays from the masks took a shift, a
+/// mask and an OR per ray for every child entered.
+#[derive(Clone, Copy, Default)]
+struct ByChild([u64; 2]);
+
+// A ray a bit of a byte, a child a byte: at most eight rays and sixteen children.
+const _: () = assert!(PACKET <= 8);
+
+impl ByChild {
+    /// Add ray `r`'s mask of hit children.
+    #[inline(always)]
+    fn add(&mut self, r: usize, mask: u32) {
+        self.0[0] |= SPREAD[(mask & 0xff) as usize] << r;
+        self.0[1] |= SPREAD[(mask >> 8 & 0xff) as usize] << r;
+    }
+
+    /// The rays whose tests hit child `i`.
+    #[inline(always)]
+    fn rays(&self, i: usize) -> u32 {
+        (self.0[i / 8] >> (8 * (i % 8)) & 0xff) as u32
+    }
 }
 
 impl<const W: usize> WideBvh<W>
@@ -223,7 +258,7 @@ where
                     }
                 } else {
                     let node = &self.nodes[current.node_index() as usize];
-                    let mut masks = [0u32; PACKET];
+                    let mut by_child = ByChild::default();
                     let mut hit = 0u32;
                     // The rays share the planes of one octant (where `one_octant`): loaded once.
                     // SAFETY: every ray of `entering` is in `active`, whose tests were all
@@ -238,7 +273,7 @@ where
                         } else {
                             test.test::<true>(node, t_min[r], t_max[r])
                         };
-                        masks[r] = m;
+                        by_child.add(r, m);
                         hit |= m;
                     }
                     if hit != 0 {
@@ -247,10 +282,10 @@ where
                         let first = (31 - hit.leading_zeros()) as usize;
                         for i in lanes_of(hit & !(1 << first)) {
                             self.prefetch(node.child[i]);
-                            stack.push((node.child[i], rays_into(&masks, i)));
+                            stack.push((node.child[i], by_child.rays(i)));
                         }
                         current = node.child[first];
-                        entering = rays_into(&masks, first);
+                        entering = by_child.rays(first);
                         continue;
                     }
                 }
