@@ -297,3 +297,30 @@ where
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `ByChild` transposes the rays' child masks: child `i`'s rays are the rays whose mask
+    /// has bit `i`, for masks of every pattern (a xorshift sequence of them) and every child.
+    #[test]
+    fn by_child_is_the_transpose_of_the_rays_masks() {
+        let mut x = 0x9e37_79b9_u32;
+        for _ in 0..2000 {
+            let mut masks = [0u32; PACKET];
+            let mut by_child = ByChild::default();
+            for (r, m) in masks.iter_mut().enumerate() {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                *m = x & 0xffff;
+                by_child.add(r, *m);
+            }
+            for i in 0..16 {
+                let want = masks.iter().enumerate().fold(0, |acc, (r, m)| acc | ((m >> i) & 1) << r);
+                assert_eq!(by_child.rays(i), want, "child {i} of {masks:x?}");
+            }
+        }
+    }
+}
