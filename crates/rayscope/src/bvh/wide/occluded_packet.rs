@@ -260,18 +260,20 @@ where
                     let node = &self.nodes[current.node_index() as usize];
                     let mut by_child = ByChild::default();
                     let mut hit = 0u32;
-                    // The rays share the planes of one octant (where `one_octant`): loaded once.
-                    // SAFETY: every ray of `entering` is in `active`, whose tests were all
-                    // written above.
-                    let lead = unsafe { tests[entering.trailing_zeros() as usize].assume_init_ref() };
-                    let planes = lead.planes(node);
+                    // Rays of one octant share the node's planes: loaded once, by the first.
+                    let shared = if one_octant {
+                        // SAFETY: every ray of `entering` is in `active`, whose tests were all
+                        // written above.
+                        Some(unsafe { tests[entering.trailing_zeros() as usize].assume_init_ref() }.planes(node))
+                    } else {
+                        None
+                    };
                     for r in lanes_of(entering) {
-                        // SAFETY: as for `lead`.
+                        // SAFETY: as for `shared`.
                         let test = unsafe { tests[r].assume_init_ref() };
-                        let (_, m) = if one_octant {
-                            test.test_planes::<true>(&planes, t_min[r], t_max[r])
-                        } else {
-                            test.test::<true>(node, t_min[r], t_max[r])
+                        let (_, m) = match &shared {
+                            Some(planes) => test.test_planes::<true>(planes, t_min[r], t_max[r]),
+                            None => test.test::<true>(node, t_min[r], t_max[r]),
                         };
                         by_child.add(r, m);
                         hit |= m;
